@@ -1,0 +1,17 @@
+"""pipeline: batch system identification from step and impulse tests.
+
+Data conventions (written down once, used everywhere):
+
+- time in seconds; ``t``, ``u``, ``y`` are float64 1-D numpy arrays, ``t`` strictly increasing;
+- models work in deviation variables from the operating point ``(u0, y0)``;
+- parameter names are ``K`` (gain), ``T`` (time constant), ``T1``, ``T2`` (two distinct
+  time constants), ``n`` (order of an equal-lag model), ``zeta`` (damping), ``wn``
+  (natural frequency, rad/s) and ``delay`` (dead time, s). There is no second spelling.
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("pipeline")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0.0.0+local"

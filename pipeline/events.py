@@ -1,0 +1,119 @@
+"""``Event`` (what segmentation found) and ``EventData`` (what a method reads).
+
+An :class:`Event` indexes into its record: the sample window ``[i_start, i_end)`` begins at
+the first sample where the input has moved (``t0``) and runs to the next event or the end
+of the record; ``i_base`` is the first sample of the settled stretch before ``t0`` whose
+mean is ``y0``.
+
+An :class:`EventData` is the self-contained slice a method works on: the arrays from
+``i_base`` to ``i_end`` and the operating-point values. It can be built from plain numpy
+arrays (:meth:`EventData.from_arrays`), so every method runs without the CLI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Event:
+    """One step or impulse found in a record (DESIGN.md "Core types")."""
+
+    index: int
+    kind: str  # "step" | "impulse"
+    i_start: int
+    i_end: int
+    i_base: int
+    t0: float
+    t_end: float
+    u0: float
+    u_ss: float  # step: level after; impulse: the baseline (== u0)
+    y0: float
+    y_ss: float
+    area: float = 0.0  # impulse: integral of (u - u0) dt (zero-order hold)
+    duration: float = 0.0  # impulse: how long the input stayed off its baseline
+    settled: bool = True
+    noise: float = 0.0  # output noise standard deviation estimate
+
+    def to_dict(self) -> dict:
+        return {
+            "index": self.index, "kind": self.kind, "t0": self.t0, "t_end": self.t_end,
+            "i_start": self.i_start, "i_end": self.i_end,
+            "u0": self.u0, "u_ss": self.u_ss, "y0": self.y0, "y_ss": self.y_ss,
+            "area": self.area if self.kind == "impulse" else None,
+            "duration": self.duration if self.kind == "impulse" else None,
+            "settled": self.settled, "noise": self.noise,
+        }
+
+
+@dataclass(frozen=True)
+class EventData:
+    """The arrays and operating point of one event, as a method sees them.
+
+    ``t, u, y`` cover the settled baseline before ``t0`` and the event window after it.
+    """
+
+    kind: str
+    t: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    t0: float
+    u0: float
+    u_ss: float
+    y0: float
+    y_ss: float
+    area: float = 0.0
+    duration: float = 0.0
+    noise: float = 0.0
+    settled: bool = True
+    index: int = 0
+
+    @classmethod
+    def from_event(cls, record, event: Event) -> EventData:
+        sl = slice(event.i_base, event.i_end)
+        return cls(
+            kind=event.kind, t=record.t[sl], u=record.u[sl], y=record.y[sl], t0=event.t0,
+            u0=event.u0, u_ss=event.u_ss, y0=event.y0, y_ss=event.y_ss, area=event.area,
+            duration=event.duration, noise=event.noise, settled=event.settled,
+            index=event.index,
+        )
+
+    @classmethod
+    def from_arrays(cls, t, u, y, *, initial_input: float | None = None, event: int = 0,
+                    **override) -> EventData:
+        """Segment plain arrays and return event number ``event``; keywords override
+        any field (e.g. ``y0=...``, ``kind="impulse"``, ``area=...``)."""
+        from .record import make_record
+        from .segment import segment
+
+        rec = make_record(t, u, y, name="arrays", source="<arrays>",
+                          initial_input=initial_input)
+        events = segment(rec)
+        if not events:
+            raise ValueError("no step or impulse event found in the arrays")
+        return replace(cls.from_event(rec, events[event]), **override)
+
+    # -- views a method needs -----------------------------------------------------------
+    @property
+    def i0(self) -> int:
+        """Index of the first sample at or after ``t0``."""
+        return int(np.searchsorted(self.t, self.t0 - 1e-9 * max(1.0, abs(self.t0))))
+
+    @property
+    def du(self) -> float:
+        return self.u_ss - self.u0
+
+    @property
+    def dy(self) -> float:
+        return self.y_ss - self.y0
+
+    @property
+    def dt(self) -> float:
+        return float(np.median(np.diff(self.t))) if self.t.size > 1 else 0.0
+
+    def after(self) -> tuple[np.ndarray, np.ndarray]:
+        """Time since ``t0`` and output deviation ``y - y0`` from ``t0`` on."""
+        i = self.i0
+        return self.t[i:] - self.t0, self.y[i:] - self.y0

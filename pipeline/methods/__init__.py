@@ -1,0 +1,22 @@
+"""Transient-analysis methods, one module per family, all behind one registry.
+
+Importing this package imports every method module (they register themselves), so the
+registry is complete without a hand-kept list.
+"""
+
+import importlib
+import pkgutil
+
+from .registry import REGISTRY, MethodInfo, MethodResult, identify, register
+
+for _m in pkgutil.iter_modules(__path__):
+    if _m.name not in {"registry", "base"}:
+        importlib.import_module(f"{__name__}.{_m.name}")
+
+
+def method_ids(event: str | None = None) -> list[str]:
+    """Registered ids in catalogue order, optionally only those for one event kind."""
+    return [m.id for m in REGISTRY.values() if event is None or m.event == event]
+
+
+__all__ = ["REGISTRY", "MethodInfo", "MethodResult", "identify", "method_ids", "register"]

@@ -1,0 +1,165 @@
+"""Reading points off a measured response, robustly against noise.
+
+The sources read values "off the graph" (seed 001: "identifying this point on the graph";
+seed 002: t33, t70, ...). On a sampled, noisy record that reading is done here:
+
+* :func:`crossing_time` - the time a response first reaches a fraction of its change.
+  Noise-free: linear interpolation between the two samples around the crossing.
+  Noisy: a preliminary crossing on a Savitzky-Golay smoothed copy, refined by a local
+  quadratic least-squares fit of the raw samples around it (many samples average the
+  noise; the quadratic removes the curvature bias of a straight line). A first noisy
+  sample across the level does not decide the reading.
+* :func:`extremum` - a peak or valley, refined the same way (vertex of a local parabola).
+* :func:`dead_time` - seed 001 "Time delay": when the output leaves its noise band
+  (ERRATA [S1] 14: the first exit of a +-max(1 %, 4 sigma) band).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from ..errors import NotApplicable
+from ..events import EventData
+
+#: Relative noise below which a response is treated as noise-free (pure interpolation).
+NOISE_FREE = 1e-7
+
+
+def noise_sigma(y: np.ndarray) -> float:
+    """Noise standard deviation from the median absolute second difference.
+
+    A smooth response has near-zero second differences, white noise of variance s^2 gives
+    second differences of variance 6 s^2; the median makes steps and spikes harmless.
+    """
+    if y.size < 5:
+        return 0.0
+    d2 = np.diff(y, 2)
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+
+
+def normalised(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(tau, h, sigma_h)``: time since t0, fractional response (y - y0)/(y_ss - y0) and
+    its noise level; a step with no output change is not applicable."""
+    tau, dy = ev.after()
+    if ev.dy == 0 or not np.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
+        raise NotApplicable("the output did not change measurably (|y_ss - y0| <= 3 sigma)")
+    return tau, dy / ev.dy, ev.noise / abs(ev.dy)
+
+
+def smooth(h: np.ndarray, sigma: float, frac: float = 0.02) -> np.ndarray:
+    """Savitzky-Golay smoothing (polyorder 2) over ~``frac`` of the window, only if noisy."""
+    if sigma <= NOISE_FREE or h.size < 7:
+        return h
+    w = max(5, int(frac * h.size) | 1)
+    w = min(w, (h.size - 1) | 1 if h.size % 2 == 0 else h.size)
+    if w < 5:
+        return h
+    return savgol_filter(h, w, 2)
+
+
+def crossing_time(tau: np.ndarray, h: np.ndarray, level: float, sigma: float = 0.0, *,
+                  start: int = 0, falling: bool = False, name: str = "") -> float:
+    """First time at or after index ``start`` where ``h`` reaches ``level``.
+
+    Rising by default (``h >= level``); ``falling=True`` looks for ``h <= level``.
+    Raises :class:`NotApplicable` when the level is never reached in the window.
+    """
+    hs = smooth(h, sigma)
+    sgn = -1.0 if falling else 1.0
+    above = sgn * (hs[start:] - level) >= 0
+    if not above.any():
+        label = name or f"{level:.1%}"
+        raise NotApplicable(f"the response never reaches {label} of its change in the window")
+    i = start + int(np.argmax(above))
+    if i == 0:
+        return float(tau[0])
+    t_c = _interp_cross(tau[i - 1], tau[i], hs[i - 1], hs[i], level)
+    if sigma <= NOISE_FREE:
+        return t_c
+    return _refine_crossing(tau, h, hs, i, t_c, level, sigma)
+
+
+def _interp_cross(t1, t2, h1, h2, level) -> float:
+    if h2 == h1:
+        return float(t2)
+    return float(t1 + (level - h1) * (t2 - t1) / (h2 - h1))
+
+
+def _refine_crossing(tau, h, hs, i, t_c, level, sigma) -> float:
+    """Local quadratic fit of the raw samples around a preliminary crossing."""
+    slope = np.gradient(hs, tau)[i]
+    if not np.isfinite(slope) or slope == 0:
+        return t_c
+    # half-width: enough samples to beat the noise, short enough to stay near-quadratic
+    half = min(max(0.08 / abs(slope), 3.5 * (tau[1] - tau[0])), t_c - tau[0]) if i > 0 else 0
+    sel = np.abs(tau - t_c) <= half
+    if sel.sum() < 5:
+        return t_c
+    x = tau[sel] - t_c
+    c2, c1, c0 = np.polyfit(x, h[sel], 2)
+    roots = np.roots([c2, c1, c0 - level])
+    roots = roots[np.isreal(roots)].real
+    roots = roots[np.abs(roots) <= half]
+    return float(t_c + roots[np.argmin(np.abs(roots))]) if roots.size else t_c
+
+
+def extremum(tau: np.ndarray, h: np.ndarray, lo: int, hi: int, sigma: float,
+             *, kind: str = "max") -> tuple[float, float, int]:
+    """Peak (``kind="max"``) or valley of ``h`` in samples ``[lo, hi)``: ``(t, h, index)``.
+
+    Noise-free: the vertex of the parabola through the extreme sample and its neighbours.
+    Noisy: the vertex of a least-squares parabola over the samples within ~10 % of the
+    oscillation period around the smoothed extreme.
+    """
+    hs = smooth(h, sigma)
+    seg = hs[lo:hi]
+    if seg.size == 0:
+        raise NotApplicable("no samples where an extremum was expected")
+    j = lo + int(np.argmax(seg) if kind == "max" else np.argmin(seg))
+    if sigma <= NOISE_FREE:
+        if 0 < j < h.size - 1:
+            x = tau[j - 1 : j + 2] - tau[j]
+            c2, c1, c0 = np.polyfit(x, h[j - 1 : j + 2], 2)
+            if c2 != 0:
+                xv = -c1 / (2 * c2)
+                if abs(xv) <= x[-1]:
+                    return float(tau[j] + xv), float(c0 - c1 * c1 / (4 * c2)), j
+        return float(tau[j]), float(h[j]), j
+    half = max(0.1 * (tau[hi - 1] - tau[lo]), 3.5 * (tau[1] - tau[0]))
+    sel = np.abs(tau - tau[j]) <= half
+    if sel.sum() < 5:
+        return float(tau[j]), float(hs[j]), j
+    x = tau[sel] - tau[j]
+    c2, c1, c0 = np.polyfit(x, h[sel], 2)
+    if c2 == 0 or (kind == "max") != (c2 < 0):
+        return float(tau[j]), float(hs[j]), j
+    xv = float(np.clip(-c1 / (2 * c2), -half, half))
+    return float(tau[j] + xv), float(c2 * xv * xv + c1 * xv + c0), j
+
+
+def band_exit_time(ev: EventData, band_rel: float = 0.01, band_sigma: float = 4.0
+                   ) -> tuple[float, float]:
+    """``(time since t0, band as a fraction of the change)`` when the output first leaves
+    the band ``y0 +- max(band_rel |dy|, band_sigma sigma)`` (seed 001 "Time delay")."""
+    tau, h, sigma = normalised(ev)
+    frac = max(band_rel, band_sigma * sigma)
+    hs = smooth(h, sigma)
+    out = np.abs(hs) > frac
+    if not out.any():
+        raise NotApplicable("the output never leaves its noise band")
+    i = int(np.argmax(out))
+    if i == 0:
+        return 0.0, frac
+    return _interp_cross(tau[i - 1], tau[i], abs(hs[i - 1]), abs(hs[i]), frac), frac
+
+
+def dead_time(ev: EventData, rise_to_band) -> tuple[float, dict]:
+    """Dead time: band exit time minus the time the undelayed model needs to reach the
+    band (``rise_to_band(frac)``); a bare band exit is late by about ``frac * T`` for a lag
+    (ERRATA [S1] 14). Never negative."""
+    t_exit, frac = band_exit_time(ev)
+    d = max(0.0, t_exit - rise_to_band(frac))
+    return d, {"t_band_exit": ev.t0 + t_exit, "band_fraction": frac}

@@ -1,0 +1,96 @@
+"""Second-order underdamped step method: overshoot and period (seed 001)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+from ..errors import NotApplicable
+from ..events import EventData
+from ..models import ProcessModel, second_order_step
+from .base import band_exit_time, extremum, normalised, smooth
+from .registry import MethodResult, register
+
+
+def zeta_from_overshoot(M: float) -> float:
+    """Seed 001: solve M = exp(-zeta pi / sqrt(1 - zeta^2)) for zeta (natural log)."""
+    lm = math.log(M)
+    return -lm / math.sqrt(math.pi**2 + lm * lm)
+
+
+def oscillation(tau: np.ndarray, h: np.ndarray, sigma: float, level: float = 1.0) -> dict:
+    """First peak, first valley and second peak of ``h`` oscillating about ``level``.
+
+    Returns times and values ``t1, h1, t2, h2, t3, h3`` (``t3`` / ``h3`` may be None).
+    Raises :class:`NotApplicable` when there is no overshoot above the noise.
+    """
+    hs = smooth(h, sigma)
+    thr = max(3 * sigma, 1e-9)
+    up = np.flatnonzero(hs > level + thr)
+    if up.size == 0:
+        raise NotApplicable("no overshoot: the response never rises above its steady state")
+    a = int(up[0])
+    down = np.flatnonzero(hs[a:] < level)
+    if down.size == 0:
+        raise NotApplicable("the response overshoots but never comes back within the window")
+    b = a + int(down[0])
+    t1, h1, _ = extremum(tau, h, a, b, sigma, kind="max")
+    back = np.flatnonzero(hs[b:] > level)
+    c = b + int(back[0]) if back.size else hs.size
+    t2, h2, _ = extremum(tau, h, b, c, sigma, kind="min")
+    out = {"t1": t1, "h1": h1, "t2": t2, "h2": h2, "t3": None, "h3": None}
+    if back.size:
+        nxt = np.flatnonzero(hs[c:] < level)
+        d = c + int(nxt[0]) if nxt.size else None
+        if d is not None and d - c >= 3 and h[c:d].max() - level > 3 * sigma:
+            out["t3"], out["h3"], _ = extremum(tau, h, c, d, sigma, kind="max")
+    return out
+
+
+@register(id="second_order_overshoot", event="step",
+          structure="K wn^2 e^{-Ds}/(s^2+2 zeta wn s+wn^2)", order="second",
+          source="seed 001 'Determining the parameters' (overshoot, period), "
+                 "'Nonzero initial conditions', 'Time delay'",
+          title="Second order, overshoot and period")
+def second_order_overshoot(ev: EventData) -> MethodResult:
+    """Underdamped second order from a step (seed 001).
+
+    1. ``K = (y_ss - y0)/(u_ss - u0)``.
+    2. Overshoot (a) from the first peak ``M = (y(t1) - y_ss)/(y_ss - y0)``; (b) from the
+       valley/peak ratio ``M = (y_ss - y(t2))/(y(t1) - y_ss)`` (reported as ``zeta_ratio``).
+    3. ``zeta = ln(1/M)/sqrt(pi^2 + ln^2 M)``.
+    4. ``T0 = t3 - t1`` (two peaks) or ``2 (t2 - t1)``; ``wn = 2 pi/(T0 sqrt(1 - zeta^2))``.
+
+    Dead time: the output leaves its noise band at ``t_e``; the undelayed model needs
+    ``t_b`` to get there, ``delay = t_e - t_b``. Not applicable without an overshoot.
+    """
+    tau, h, sigma = normalised(ev)
+    K = ev.dy / ev.du
+    osc = oscillation(tau, h, sigma)
+    M = osc["h1"] - 1.0
+    if not 0 < M < 1:
+        raise NotApplicable(f"overshoot {M:.3g} outside (0, 1)")
+    zeta = zeta_from_overshoot(M)
+    M_ratio = (1.0 - osc["h2"]) / (osc["h1"] - 1.0)
+    zeta_ratio = zeta_from_overshoot(M_ratio) if 0 < M_ratio < 1 else None
+    T0 = osc["t3"] - osc["t1"] if osc["t3"] is not None else 2 * (osc["t2"] - osc["t1"])
+    wn = 2 * math.pi / (T0 * math.sqrt(1 - zeta**2))
+    t_e, frac = band_exit_time(ev)
+    t_b = _time_to_fraction(zeta, wn, frac)
+    delay = max(0.0, t_e - t_b)
+    diag = {"t0": ev.t0, "t_peak1": ev.t0 + osc["t1"], "y_peak1": ev.y0 + osc["h1"] * ev.dy,
+            "t_valley1": ev.t0 + osc["t2"], "y_valley1": ev.y0 + osc["h2"] * ev.dy,
+            "t_peak2": ev.t0 + osc["t3"] if osc["t3"] is not None else None,
+            "overshoot": M, "overshoot_ratio": M_ratio, "zeta_ratio": zeta_ratio,
+            "period": T0, "t_band_exit": ev.t0 + t_e}
+    return MethodResult(
+        ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn, "delay": delay}), diag)
+
+
+def _time_to_fraction(zeta: float, wn: float, frac: float) -> float:
+    """Time the undelayed unit second-order response needs to reach ``frac`` (< first peak)."""
+    f = lambda t: second_order_step(np.array([t]), zeta, wn)[0] - frac  # noqa: E731
+    hi = math.pi / (wn * math.sqrt(1 - zeta**2))
+    return brentq(f, 0.0, hi) if f(hi) > 0 else 0.0

@@ -1,0 +1,189 @@
+"""Event detection: steps and impulses in a noisy input with a nonzero operating point.
+
+Algorithm (pure function of the record):
+
+1. The input noise ``sigma_u`` is estimated from the median absolute first difference;
+   an input change counts when it exceeds ``max(min_step, rel_min_step * range, 5 sigma_u)``.
+2. The input is scanned against the current level (the declared ``initial_input`` before
+   the first row, else the median of the first samples). A departure from the level starts
+   an event at ``t0``; the samples of a ramp or of noise around it belong to the same event.
+3. If the input comes back to the level and stays there, and it was away for less than
+   ``pulse_fraction`` of the time to the next event, it was a pulse: an impulse event whose
+   strength is the area ``A = sum (u - u0) dt`` (zero-order hold). A one-sample spike is a
+   pulse too. Otherwise it is a step to a new level (trimmed mean of its plateau).
+4. Each event's window runs to the next event or the end of the record. ``y0`` is the mean
+   of the settled output before ``t0`` (the tail of the previous window) or of the first
+   ``head_samples`` when the event is at the start of the record; ``y_ss`` is the mean over
+   the last ``tail_fraction`` of the window (seed 001 averages the last 11 samples).
+5. A step window shorter than ``settle_time_constants`` times the time the output takes to
+   reach 63 % is flagged ``settled = False`` (DaISy's 200 s windows are ~3 time constants).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import trim_mean
+
+from .events import Event
+from .methods.base import noise_sigma, smooth
+from .record import Record
+
+
+@dataclass(frozen=True)
+class SegmentOptions:
+    min_step: float | None = None
+    rel_min_step: float = 0.05
+    input_noise_factor: float = 5.0
+    tail_fraction: float = 0.1
+    min_tail_samples: int = 3
+    head_samples: int = 2
+    pulse_fraction: float = 0.1
+    stable_samples: int = 3
+    settle_time_constants: float = 4.0
+
+
+@dataclass(frozen=True)
+class _Raw:
+    kind: str
+    k: int  # first sample off the old level
+    j: int  # first sample of the new plateau (step) / back on the baseline (impulse)
+    level_before: float
+
+
+def input_threshold(u: np.ndarray, initial_input: float | None, opt: SegmentOptions
+                    ) -> tuple[float, float]:
+    """``(threshold, sigma_u)`` for an input change to count as an event."""
+    d = np.diff(u)
+    sigma_u = float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(2)) if d.size else 0
+    lo, hi = float(u.min()), float(u.max())
+    if initial_input is not None:
+        lo, hi = min(lo, initial_input), max(hi, initial_input)
+    rel = opt.rel_min_step * (hi - lo)
+    floor = opt.min_step if opt.min_step is not None else rel
+    return max(floor, opt.input_noise_factor * sigma_u, 1e-12 * max(1.0, abs(hi))), sigma_u
+
+
+def segment(record: Record, options: SegmentOptions | None = None) -> list[Event]:
+    """Find the step and impulse events of ``record`` (see the module docstring)."""
+    opt = options or SegmentOptions()
+    t, u, y = record.t, record.u, record.y
+    n = u.size
+    thr, sigma_u = input_threshold(u, record.initial_input, opt)
+    level = (record.initial_input if record.initial_input is not None
+             else float(np.median(u[: min(5, n)])))
+    raws: list[_Raw] = []
+    k = 0
+    while k < n:
+        if abs(u[k] - level) <= thr:
+            k += 1
+            continue
+        back = _first_stable(u, k + 1, level, thr, opt.stable_samples)
+        if back is not None:
+            nxt = _next_departure(u, back, level, thr)
+            t_next = t[nxt] if nxt < n else t[-1] + (t[-1] - t[-2])
+            if t[back] - t[k] < opt.pulse_fraction * (t_next - t[k]):
+                raws.append(_Raw("impulse", _walk_back(u, k, level, sigma_u), back, level))
+                k = back
+                continue
+        j = _plateau_start(u, k, thr, opt.stable_samples)
+        raws.append(_Raw("step", _walk_back(u, k, level, sigma_u), j, level))
+        level = float(np.median(u[j : j + opt.stable_samples]))
+        k = j
+    return _events(record, raws, opt, thr)
+
+
+def _first_stable(u, start, level, thr, m) -> int | None:
+    """First index >= start from which ``m`` samples (or the rest) sit within thr of level."""
+    near = np.abs(u[start:] - level) <= thr
+    idx = np.flatnonzero(near)
+    for i in idx:
+        run = near[i : i + m]
+        if run.all():
+            return start + int(i)
+    return None
+
+
+def _next_departure(u, start, level, thr) -> int:
+    off = np.flatnonzero(np.abs(u[start:] - level) > thr)
+    return start + int(off[0]) if off.size else u.size
+
+
+def _plateau_start(u, k, thr, m) -> int:
+    """First index j >= k where ``m`` consecutive samples agree within thr/2 (end of a ramp)."""
+    n = u.size
+    for j in range(k, n):
+        w = u[j : j + m]
+        if np.all(np.abs(w - np.median(w)) <= thr / 2):
+            return j
+    return k
+
+
+def _walk_back(u, k, level, sigma_u) -> int:
+    """Move a departure back to where a slow ramp really began (noise-aware)."""
+    tol = max(3 * sigma_u, 1e-9 * max(1.0, abs(level)))
+    while k > 0 and abs(u[k - 1] - level) > tol and abs(u[k - 1] - level) < abs(u[k] - level):
+        k -= 1
+    return k
+
+
+def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -> list[Event]:
+    t, u, y = record.t, record.u, record.y
+    n = u.size
+    events: list[Event] = []
+    for idx, r in enumerate(raws):
+        end = raws[idx + 1].k if idx + 1 < len(raws) else n
+        prev = raws[idx - 1].k if idx > 0 else 0
+        # baseline before t0
+        if r.k == 0:
+            i_base, base = 0, y[: max(1, min(opt.head_samples, end))]
+        else:
+            m = max(opt.min_tail_samples, int(opt.tail_fraction * (r.k - prev)))
+            i_base = max(prev if idx > 0 else 0, r.k - m)
+            base = y[i_base : r.k]
+        y0 = float(np.mean(base))
+        m = max(opt.min_tail_samples, int(opt.tail_fraction * (end - r.k)))
+        y_ss = float(np.mean(y[max(r.k, end - m) : end]))
+        noise = noise_sigma(y[i_base:end])
+        if r.kind == "step":
+            plateau = u[r.j : end]
+            plateau = plateau[np.abs(plateau - np.median(plateau)) <= thr] if plateau.size else plateau
+            u_ss = float(trim_mean(plateau, 0.1)) if plateau.size else float(u[r.j])
+            u0 = r.level_before if idx == 0 else _level_before(events, r)
+            area, dur = 0.0, 0.0
+            settled = _step_settled(t[r.k : end], y[r.k : end], y0, y_ss, noise, opt)
+        else:
+            u0 = u_ss = r.level_before if idx == 0 else _level_before(events, r)
+            dt = np.diff(t[r.k : r.j + 1])
+            area = float(np.sum((u[r.k : r.j] - u0) * dt))
+            dur = float(t[r.j] - t[r.k])
+            peak = float(np.max(np.abs(y[r.k : end] - y0))) if end > r.k else 0.0
+            settled = abs(y_ss - y0) <= 0.05 * peak + 3 * noise
+        events.append(Event(
+            index=idx, kind=r.kind, i_start=r.k, i_end=end, i_base=i_base, t0=float(t[r.k]),
+            t_end=float(t[end - 1]), u0=float(u0), u_ss=float(u_ss), y0=y0, y_ss=y_ss,
+            area=area, duration=dur, settled=bool(settled), noise=noise,
+        ))
+    return events
+
+
+def _level_before(events: list[Event], r: _Raw) -> float:
+    """The refined level of the previous step's plateau (its trimmed mean)."""
+    for ev in reversed(events):
+        if ev.kind == "step":
+            return ev.u_ss
+    return r.level_before
+
+
+def _step_settled(t, y, y0, y_ss, noise, opt: SegmentOptions) -> bool:
+    dy = y_ss - y0
+    if t.size < 4 or dy == 0:
+        return False
+    h = smooth((y - y0) / dy, noise / abs(dy))
+    reach = np.flatnonzero(h >= 0.632)
+    if reach.size == 0:
+        return False
+    t63 = t[reach[0]] - t[0]
+    return bool(t[-1] - t[0] >= opt.settle_time_constants * max(t63, t[1] - t[0]))
