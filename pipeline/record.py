@@ -30,6 +30,7 @@ class Record:
     initial_input: float | None = None
     input_name: str = "u"
     output_name: str = "y"
+    notes: tuple[str, ...] = ()  # warnings from loading (gaps, unindexed scan, ...)
 
     @property
     def n_samples(self) -> int:
@@ -50,6 +51,7 @@ def infer_sample_time(t: np.ndarray, rel_tol: float = 1e-6) -> float | None:
 def make_record(
     t, u, y, *, name: str, source: str, units: dict[str, str] | None = None,
     initial_input: float | None = None, input_name: str = "u", output_name: str = "y",
+    notes: tuple[str, ...] = (),
 ) -> Record:
     """Validate arrays and build a :class:`Record`; a problem is a :class:`UserError`."""
     t = np.ascontiguousarray(t, dtype=np.float64)
@@ -76,5 +78,5 @@ def make_record(
     return Record(
         t=t, u=u, y=y, name=name, source=source, units=dict(units or {}),
         sample_time=infer_sample_time(t), initial_input=initial_input,
-        input_name=input_name, output_name=output_name,
+        input_name=input_name, output_name=output_name, notes=tuple(notes),
     )
