@@ -1,0 +1,165 @@
+"""Run configuration: YAML read with ``yaml.safe_load`` and validated by pydantic.
+
+Every problem is one :class:`~pipeline.errors.UserError` line naming the file, the key path
+(e.g. ``data.inptu``) and what was expected. Relative paths are relative to the config file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from .errors import UserError
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SignalConfig(_Strict):
+    """A numeric field of an MCAP topic, e.g. ``{topic: /plate/temp, field: temperature.value}``."""
+
+    topic: str
+    field: str
+
+
+class DataConfig(_Strict):
+    """Where the log is and which signals are the input and the output."""
+
+    dataset: str | None = None
+    path: str | None = Field(None, description="a file, a folder or a glob")
+    paths: list[str] | None = None
+    format: Literal["csv", "dat", "mcap"] | None = None
+    time: str | None = None
+    sample_time: float | None = Field(None, gt=0)
+    input: str | SignalConfig | None = None
+    output: str | SignalConfig | None = None
+    columns: list[str] | None = None
+    initial_input: float | None = None
+    units: dict[Literal["time", "input", "output"], str] | None = None
+    stamp: str | None = None
+    max_gap: float | None = Field(None, gt=0)
+
+    def unit_map(self) -> dict[str, str]:
+        return dict(self.units or {})
+
+
+class SegmentationConfig(_Strict):
+    min_step: float | None = Field(None, gt=0)
+    rel_min_step: float = Field(0.05, gt=0, lt=1)
+    tail_fraction: float = Field(0.1, gt=0, le=0.5)
+    head_samples: int = Field(2, ge=1)
+    pulse_fraction: float = Field(0.1, gt=0, lt=1)
+    settle_time_constants: float = Field(4.0, gt=0)
+
+
+class IdentificationConfig(_Strict):
+    events: list[int] | Literal["all"] = Field(default_factory=lambda: [0])
+
+    @field_validator("events")
+    @classmethod
+    def _nonneg(cls, v):
+        if isinstance(v, list) and (not v or any(i < 0 for i in v)):
+            raise ValueError("expected a non-empty list of event indices >= 0, or 'all'")
+        return v
+
+
+class ReportConfig(_Strict):
+    title: str | None = None
+    html: bool = True
+    markdown: bool = True
+
+
+class RunConfig(_Strict):
+    name: str = "run"
+    data: DataConfig
+    segmentation: SegmentationConfig = SegmentationConfig()
+    identification: IdentificationConfig = IdentificationConfig()
+    methods: list[str] | Literal["all"] = "all"
+    output: str | None = None
+    report: ReportConfig = ReportConfig()
+    base_dir: str = Field(".", exclude=True)
+    source: str = Field("<config>", exclude=True)
+
+    @field_validator("methods")
+    @classmethod
+    def _known_methods(cls, v):
+        if v == "all":
+            return v
+        from .methods import REGISTRY
+
+        unknown = [m for m in v if m not in REGISTRY]
+        if unknown:
+            raise ValueError(
+                f"unknown method {unknown[0]!r}; expected 'all' or ids from: "
+                + ", ".join(REGISTRY)
+            )
+        return v
+
+    def method_ids(self) -> list[str]:
+        from .methods import method_ids
+
+        return method_ids() if self.methods == "all" else list(self.methods)
+
+
+def load_config(path: str | Path) -> RunConfig:
+    """Read and validate a YAML config file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UserError(f"{path}: config file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read the config ({exc})") from None
+    try:
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise UserError(f"{path}: {where}not valid YAML ({problem})") from None
+    if not isinstance(raw, dict):
+        raise UserError(f"{path}: expected a mapping of keys (name, data, methods, ...)")
+    return config_from_dict(raw, source=str(path), base_dir=str(path.parent))
+
+
+def config_from_dict(raw: dict, *, source: str = "<config>", base_dir: str = ".") -> RunConfig:
+    try:
+        cfg = RunConfig.model_validate(raw)
+    except ValidationError as exc:
+        raise UserError(f"{source}: {_describe(exc)}") from None
+    cfg = cfg.model_copy(update={"base_dir": base_dir, "source": source})
+    _check_data(cfg, source)
+    return cfg
+
+
+def _describe(exc: ValidationError) -> str:
+    rank = {"extra_forbidden": 0, "missing": 1}
+    err = min(exc.errors(), key=lambda e: rank.get(e["type"], 2))
+    loc = _clean_loc(err["loc"])
+    kind = err["type"]
+    if kind == "extra_forbidden":
+        return f"unknown key '{loc}'; check its spelling"
+    if kind == "missing":
+        return f"missing key '{loc}'"
+    msg = err["msg"].removeprefix("Value error, ")
+    return f"key '{loc}': {msg} (got {err.get('input')!r})"
+
+
+def _clean_loc(loc) -> str:
+    # pydantic adds union member names (e.g. 'str', 'SignalConfig') into the location
+    parts = [str(p) for p in loc if str(p) not in {"str", "SignalConfig", "list[int]",
+                                                      "list[str]", "literal['all']"}]
+    return ".".join(parts)
+
+
+def _check_data(cfg: RunConfig, source: str) -> None:
+    d = cfg.data
+    given = [k for k in ("dataset", "path", "paths") if getattr(d, k)]
+    if len(given) != 1:
+        raise UserError(f"{source}: key 'data': give exactly one of dataset, path or paths")
+    if not d.dataset and (d.input is None or d.output is None):
+        raise UserError(f"{source}: key 'data': 'input' and 'output' are required with a path")

@@ -1,0 +1,257 @@
+"""Report assembly: results -> a template context -> report.md (+ PNGs), report.html
+(one self-contained file, plots inline) and results.json, written atomically: everything
+goes to a temporary sibling folder that replaces the output folder in one rename, so a
+crash never leaves a half-written report.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+import os
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from jinja2 import Environment, PackageLoader, select_autoescape
+
+from ..methods import REGISTRY
+from ..run import RecordResult
+from ..validate import event_simulation, validation_simulation
+from . import plots
+
+ORDER_TITLES = {"first": "first-order models", "second": "second-order models",
+                "nth": "n-th order models"}
+MAX_FULL_RECORDS = 20  # above this, per-record sections keep only the key plots
+
+
+@dataclass
+class Figure:
+    title: str
+    png: bytes
+    file: str = ""
+
+    @property
+    def b64(self) -> str:
+        return base64.b64encode(self.png).decode("ascii")
+
+
+@dataclass
+class Extras:
+    """Optional sections from the batch layer (regressions, history)."""
+
+    regressions: list[dict] | None = None
+    new: list[str] = field(default_factory=list)
+    history: list[tuple[str, bytes]] = field(default_factory=list)
+
+
+def fmt(v, digits: int = 4) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "-"
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def params_text(params: dict | None) -> str:
+    if not params:
+        return "-"
+    return ", ".join(f"{k}={fmt(float(v))}" for k, v in params.items()
+                     if not (k == "delay" and float(v) == 0.0))
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "record"
+
+
+def _marks(diag: dict) -> list[tuple[float, float, str]]:
+    out = []
+    for k, v in diag.items():
+        yk = "y" + k[1:]
+        if k.startswith("t") and yk in diag and isinstance(v, int | float) and \
+                isinstance(diag[yk], int | float):
+            out.append((float(v), float(diag[yk]), k))
+    return out
+
+
+def _record_context(res: RecordResult, full: bool, add) -> dict:
+    rec = res.record
+    ctx = {"name": res.spec.name, "anchor": _slug(res.spec.name), "ok": res.ok,
+           "error": res.error, "source": rec.source if rec else res.spec.path,
+           "notes": list(rec.notes) if rec else [], "events": [], "ident": []}
+    if rec is None:
+        return ctx
+    ctx["meta"] = {"samples": rec.n_samples, "sample_time": fmt(rec.sample_time),
+                   "input": rec.input_name, "output": rec.output_name,
+                   "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
+    ctx["events"] = [{
+        "index": e.index, "kind": e.kind, "role": res.roles.get(e.index, "-"),
+        "t0": fmt(e.t0), "t_end": fmt(e.t_end), "u0": fmt(e.u0),
+        "u_ss": fmt(e.u_ss) if e.kind == "step" else "-",
+        "area": fmt(e.area) if e.kind == "impulse" else "-",
+        "y0": fmt(e.y0), "y_ss": fmt(e.y_ss), "settled": "yes" if e.settled else "NO (short)",
+    } for e in res.events]
+    if res.events:
+        ctx["overview"] = add(f"{ctx['anchor']}_overview",
+                              "Record with events", plots.overview(rec, res.events, res.roles))
+    validation = [i for i, r in res.roles.items() if r == "validation"]
+    for i in sorted(i for i, r in res.roles.items() if r == "identification"):
+        ctx["ident"].append(_ident_context(res, i, validation, full, add, ctx["anchor"]))
+    return ctx
+
+
+def _ident_context(res: RecordResult, i: int, validation: list[int], full: bool, add,
+                   anchor: str) -> dict:
+    rec, ev = res.record, res.events[i]
+    ranked = res.ranking(i)
+    crit = "mse_validation" if validation else "ise"
+    rows = []
+    for rank, f in enumerate(ranked, start=1):
+        m = f.metrics
+        rows.append({"rank": rank, "method": f.method, "title": REGISTRY[f.method].title,
+                     "order": REGISTRY[f.method].order,
+                     "params": params_text(f.model.params), "tf": f.model.text(),
+                     "ise": fmt(m.get("ise")), "mse_id": fmt(m.get("mse_identification")),
+                     "mse_val": fmt(m.get("mse_validation")), "fit": fmt(m.get("fit_percent"), 3),
+                     "source": REGISTRY[f.method].source})
+    other = [{"method": f.method, "status": f.status, "reason": f.reason}
+             for f in res.fits if f.event == i and not f.ok]
+    out = {"index": i, "kind": ev.kind, "rows": rows, "other": other,
+           "criterion": "validation MSE" if validation else "ISE on the identification event",
+           "figures": []}
+    if not ranked:
+        return out
+    unit = rec.units.get("output")
+    sq = f" [{unit}^2]" if unit else ""
+    out["figures"].append(add(f"{anchor}_e{i}_ranking", "Methods ranked", plots.criterion_bars(
+        [f.method for f in ranked], [f.metrics.get(crit, math.nan) for f in ranked],
+        f"{'validation MSE' if validation else 'ISE'}{sq if validation else ''}",
+        f"Event {i}: methods ranked by {out['criterion']} (lower is better)")))
+    sl = slice(ev.i_start, ev.i_end)
+    groups = {}
+    for f in (ranked if full else ranked[:1]):
+        groups.setdefault(f.model.order_class if full else "best", []).append(f)
+    for order, fits in groups.items():
+        label = ORDER_TITLES.get(order, "best model")
+        curves = [(f"{f.method}: {f.model.text(3)}", event_simulation(f.model, rec, ev))
+                  for f in fits]
+        marks = _marks(fits[0].diagnostics) if order in ("first", "best") else []
+        out["figures"].append(add(
+            f"{anchor}_e{i}_ident_{order}", f"Identification event {i}: {label}",
+            plots.overlay(rec, sl, curves, f"Identification event {i}: measured vs {label}",
+                          marks=marks)))
+        if validation:
+            out["figures"].append(add(
+                f"{anchor}_e{i}_valid_{order}", f"Validation events: {label}",
+                _validation_overlay(res, fits, validation, label)))
+    return out
+
+
+def _validation_overlay(res: RecordResult, fits, validation, label) -> bytes:
+    rec = res.record
+    lo = min(res.events[v].i_start for v in validation)
+    hi = max(res.events[v].i_end for v in validation)
+    curves = []
+    for f in fits:
+        y = np.full(hi - lo, np.nan)
+        for sl, sim in validation_simulation(f.model, rec, res.events, validation):
+            y[sl.start - lo : sl.stop - lo] = sim
+        curves.append((f"{f.method} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y))
+    return plots.overlay(rec, slice(lo, hi), curves,
+                         f"Validation: measured vs {label}, simulated from each run's "
+                         "operating point", events=res.events, roles=res.roles)
+
+
+def summary_rows(results: list[RecordResult]) -> list[dict]:
+    rows = []
+    for r in results:
+        best = r.best
+        p = best.model.params if best else {}
+        if "zeta" in p:
+            dyn = f"zeta={fmt(p['zeta'])}, wn={fmt(p['wn'])}"
+        elif "T1" in p:
+            dyn = f"T1={fmt(p['T1'])}, T2={fmt(p['T2'])}"
+        elif "T" in p:
+            dyn = f"T={fmt(p['T'])}" + (f", n={fmt(p['n'])}" if "n" in p else "")
+        else:
+            dyn = "-"
+        rows.append({
+            "name": r.spec.name, "anchor": _slug(r.spec.name),
+            "status": "ok" if r.ok else "failed", "reason": r.error or "",
+            "events": len(r.events), "best": best.method if best else "-",
+            "K": fmt(p.get("K")), "dyn": dyn,
+            "mse": fmt(best.metrics.get("mse_validation")) if best else "-",
+        })
+    return rows
+
+
+def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras | None = None
+           ) -> tuple[str, str, dict[str, bytes]]:
+    """``(markdown, html, {png file name: bytes})`` for a run."""
+    files: dict[str, bytes] = {}
+
+    def add(stem: str, fig_title: str, png: bytes) -> Figure:
+        name = f"plots/{_slug(stem)}.png"
+        files[name] = png
+        return Figure(fig_title, png, name)
+
+    full = len(results) <= MAX_FULL_RECORDS
+    extras = extras or Extras()
+    history = [add(f"history_{k}", t, png) for k, (t, png) in enumerate(extras.history)]
+    ctx = {
+        "title": title, "doc": doc, "records": [_record_context(r, full, add) for r in results],
+        "summary": summary_rows(results), "extras": extras, "history": history,
+        "n_failed": sum(not r.ok for r in results), "full": full,
+    }
+    env = Environment(loader=PackageLoader("pipeline", "report/templates"),
+                      autoescape=select_autoescape(["html.j2"]), trim_blocks=True,
+                      lstrip_blocks=True)
+    md = env.get_template("report.md.j2").render(**ctx)
+    html = env.get_template("report.html.j2").render(**ctx)
+    return md, html, files
+
+
+def write_run(out_dir: Path, results: list[RecordResult], doc: dict, *, title: str,
+              extras: Extras | None = None, markdown: bool = True, html: bool = True) -> Path:
+    """Write results.json, report.md (+ plots/) and report.html atomically into ``out_dir``."""
+    out_dir = Path(out_dir)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    md, page, files = render(results, doc, title=title, extras=extras)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+    try:
+        (tmp / "results.json").write_text(json.dumps(doc, indent=1, default=_json_default,
+                                                     allow_nan=False) + "\n")
+        if markdown:
+            (tmp / "plots").mkdir()
+            for name, png in files.items():
+                (tmp / name).write_bytes(png)
+            (tmp / "report.md").write_text(md, encoding="utf-8")
+        if html:
+            (tmp / "report.html").write_text(page, encoding="utf-8")
+        _swap(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out_dir
+
+
+def _swap(tmp: Path, out_dir: Path) -> None:
+    if out_dir.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old-", dir=out_dir.parent))
+        os.replace(out_dir, old / "x")
+        os.replace(tmp, out_dir)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, out_dir)
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

@@ -1,0 +1,114 @@
+"""Matplotlib figures for the reports, returned as PNG bytes (Agg backend, no display).
+
+Every axis is labelled with its quantity and unit, every figure with more than one curve
+has a legend, and events are shaded and numbered.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..record import Record  # noqa: E402
+
+ROLE_COLOURS = {"identification": "#4c72b0", "validation": "#55a868", "unused": "#bbbbbb"}
+DPI = 110
+
+
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _label(record: Record, which: str) -> str:
+    name = record.input_name if which == "input" else record.output_name
+    unit = record.units.get(which)
+    return f"{which} {name} [{unit}]" if unit else f"{which} {name}"
+
+
+def _time_label(record: Record) -> str:
+    return f"time [{record.units.get('time', 's')}]"
+
+
+def _shade(ax, record: Record, events, roles, *, labels: bool) -> None:
+    seen = set()
+    for ev in events:
+        role = roles.get(ev.index, "unused")
+        t1 = record.t[ev.i_end - 1]
+        ax.axvspan(ev.t0, t1, color=ROLE_COLOURS[role], alpha=0.12,
+                   label=f"{role} event" if labels and role not in seen else None)
+        seen.add(role)
+        ax.axvline(ev.t0, color=ROLE_COLOURS[role], lw=0.8, ls="--")
+        if labels:
+            ax.annotate(f"#{ev.index} {ev.kind}", (ev.t0, 1.0), xycoords=("data", "axes fraction"),
+                        xytext=(3, -12), textcoords="offset points", fontsize=8,
+                        color=ROLE_COLOURS[role])
+
+
+def overview(record: Record, events, roles) -> bytes:
+    """The whole record: output on top, input below, events shaded and numbered."""
+    fig, (ax_y, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(11, 5.2),
+                                     gridspec_kw={"height_ratios": [2, 1]})
+    ax_y.plot(record.t, record.y, color="#333333", lw=0.9, label="measured output")
+    ax_u.step(record.t, record.u, where="post", color="#c44e52", lw=1.0, label="input")
+    for ax in (ax_y, ax_u):
+        _shade(ax, record, events, roles, labels=ax is ax_y)
+        ax.grid(alpha=0.3)
+    ax_y.set_ylabel(_label(record, "output"))
+    ax_u.set_ylabel(_label(record, "input"))
+    ax_u.set_xlabel(_time_label(record))
+    ax_y.legend(loc="best", fontsize=8)
+    ax_y.set_title(f"{record.name}: record and events")
+    return _png(fig)
+
+
+def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], title: str,
+            *, events=(), roles=None, marks: list[tuple[float, float, str]] = ()) -> bytes:
+    """Measured output over ``sl`` with model curves; optional read points ``marks``."""
+    fig, ax = plt.subplots(figsize=(11, 4.2))
+    t = record.t[sl]
+    ax.plot(t, record.y[sl], color="#222222", lw=1.4, alpha=0.8, label="measured")
+    styles = ["-", "--", "-.", ":"]
+    for k, (name, yh) in enumerate(curves):
+        ax.plot(t, yh, lw=1.3, ls=styles[(k // 10) % 4], label=name)
+    for tm, ym, text in marks:
+        ax.plot([tm], [ym], "o", ms=4, color="black")
+        ax.annotate(text, (tm, ym), xytext=(4, 4), textcoords="offset points", fontsize=7)
+    if events:
+        _shade(ax, record, [e for e in events if e.i_start < sl.stop and e.i_end > sl.start],
+               roles or {}, labels=False)
+    ax.set_xlim(t[0], t[-1])
+    ax.set_xlabel(_time_label(record))
+    ax.set_ylabel(_label(record, "output"))
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8, ncol=2 if len(curves) > 5 else 1)
+    return _png(fig)
+
+
+def criterion_bars(names: list[str], values: list[float], xlabel: str, title: str) -> bytes:
+    """Sorted horizontal bar chart of a criterion (best at the top), log scale if spread."""
+    pairs = sorted(((v, n) for n, v in zip(names, values, strict=True) if math.isfinite(v)),
+                   reverse=True)
+    fig, ax = plt.subplots(figsize=(8, 0.38 * max(len(pairs), 2) + 1.2))
+    if pairs:
+        vals = [p[0] for p in pairs]
+        ax.barh([p[1] for p in pairs], vals, color="#4c72b0")
+        positive = [v for v in vals if v > 0]
+        if positive and max(positive) / max(min(positive), 1e-300) > 50:
+            ax.set_xscale("log")
+        for y, v in enumerate(vals):
+            ax.annotate(f"{v:.3g}", (v, y), xytext=(3, -3), textcoords="offset points",
+                        fontsize=7)
+    ax.set_xlabel(xlabel)
+    ax.set_title(title)
+    ax.grid(axis="x", alpha=0.3)
+    return _png(fig)

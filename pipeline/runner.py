@@ -1,0 +1,77 @@
+"""``pipeline run``: one config from YAML to reports, with the batch, baseline and history
+options. Returns an :class:`Outcome` (exit code and messages); the CLI only prints it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .config import load_config
+from .report.build import Extras, write_run
+from .run import RecordResult, resolve_specs, results_document
+
+
+@dataclass(frozen=True)
+class Outcome:
+    exit_code: int
+    out_dir: Path | None
+    results: list[RecordResult] = field(default_factory=list)
+    failures: list[str] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
+
+
+def execute(config: Path, *, out_dir: Path | None = None, workers: int | None = None,
+            executor: str = "local", scheduler: str | None = None,
+            baseline: Path | None = None, junit: Path | None = None,
+            history: Path | None = None, progress: bool | None = None,
+            created: str = "") -> Outcome:
+    cfg = load_config(config)
+    specs = resolve_specs(cfg)
+    results = process_all(specs, cfg, workers=workers, executor=executor,
+                          scheduler=scheduler, progress=progress)
+    failures = [r.error for r in results if not r.ok]
+    if len(failures) == len(results):
+        return Outcome(2, None, results, failures)
+    doc = results_document(results, str(config), created)
+    extras = Extras()
+    messages: list[str] = []
+    regressions = 0
+    if baseline is not None:
+        from .baseline import compare, load_results
+        from .report.junit import write_junit
+
+        comparison = compare(doc, load_results(baseline))
+        extras.regressions = [f.as_row() for f in comparison.regressions]
+        extras.new = list(comparison.new)
+        regressions = len(comparison.regressions)
+        if junit is not None:
+            write_junit(junit, doc, comparison)
+        messages.append(f"{regressions} regression(s) against {baseline}")
+    elif junit is not None:
+        from .report.junit import write_junit
+
+        write_junit(junit, doc, None)
+    if history is not None:
+        from datetime import datetime
+
+        from .history import append_history, load_history
+        from .report.history_plots import history_figures
+
+        append_history(history, doc, datetime.fromisoformat(created) if created else None)
+        extras.history = history_figures(load_history(history))
+    target = out_dir or Path(cfg.output or Path("reports") / cfg.name)
+    write_run(target, results, doc, title=cfg.report.title or f"System identification: "
+              f"{cfg.name}", extras=extras, markdown=cfg.report.markdown, html=cfg.report.html)
+    ok = len(results) - len(failures)
+    messages.insert(0, f"{ok} of {len(results)} record(s) identified; reports in {target}/")
+    code = 1 if regressions else (3 if failures else 0)
+    return Outcome(code, target, results, failures, messages)
+
+
+def process_all(specs, cfg, *, workers=None, executor="local", scheduler=None, progress=None
+                ) -> list[RecordResult]:
+    from .batch import run_records
+
+    return run_records(specs, cfg, workers=workers, executor=executor, scheduler=scheduler,
+                       progress=progress)
