@@ -138,7 +138,8 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
         prev = raws[idx - 1].k if idx > 0 else 0
         # baseline before t0
         if r.k == 0:
-            i_base, base = 0, y[: max(1, min(opt.head_samples, end))]
+            i_base, base = 0, _head(y[: max(1, min(opt.head_samples, end))],
+                                    noise_sigma(y[:end]))
         else:
             m = max(opt.min_tail_samples, int(opt.tail_fraction * (r.k - prev)))
             i_base = max(prev if idx > 0 else 0, r.k - m)
@@ -167,6 +168,14 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             area=area, duration=dur, settled=bool(settled), noise=noise,
         ))
     return events
+
+
+def _head(y: np.ndarray, sigma: float) -> np.ndarray:
+    """The first samples of a record that still sit at the starting level (within 3 sigma):
+    at the start of a record the response may already be moving at the second sample."""
+    keep = np.abs(y - y[0]) <= 3 * sigma + 1e-12 * max(1.0, abs(y[0]))
+    n = int(np.argmin(keep)) if not keep.all() else y.size
+    return y[: max(1, n)]
 
 
 def _level_before(events: list[Event], r: _Raw) -> float:

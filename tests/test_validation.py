@@ -1,0 +1,45 @@
+"""Identification on one event, validation on the others (issue 2)."""
+
+import numpy as np
+import pytest
+
+from pipeline.models import ProcessModel
+from pipeline.run import analyse
+from pipeline.synth import step_record
+
+
+def test_two_steps_validation_mse_equals_noise_variance():
+    """Identify on the first step, validate on the second: with the right model the
+    validation residual is the noise, so MSE = noise variance (within 20 %)."""
+    truth = ProcessModel("first_order", {"K": 2.5, "T": 7.0})
+    noise = 0.05
+    rec = step_record(truth, u0=1.5, changes=[(13.7, 3.5), (113.7, 2.0)], t_end=213.7,
+                      dt=0.05, y0=-4.0, noise=noise, seed=11)
+    res = analyse(rec, methods=["first_order"])
+    assert res.roles == {0: "identification", 1: "validation"}
+    (fit,) = res.fits
+    assert fit.ok
+    assert fit.model.params["K"] == pytest.approx(2.5, rel=0.02)
+    assert fit.metrics["mse_validation"] == pytest.approx(noise**2, rel=0.2)
+    y_val = rec.y[res.events[1].i_start:]
+    expected_fit = 100 * (1 - noise / np.std(y_val))  # NRMSE fit when the residual is noise
+    assert fit.metrics["fit_percent"] == pytest.approx(expected_fit, abs=1.0)
+
+
+def test_validation_starts_at_each_runs_operating_point():
+    """Validation events that are not contiguous are simulated run by run."""
+    truth = ProcessModel("first_order", {"K": 2.0, "T": 3.0})
+    rec = step_record(truth, u0=0.0, changes=[(10, 1.0), (60, 3.0), (110, 2.0)], t_end=160,
+                      dt=0.05, y0=5.0)
+    res = analyse(rec, events_for_identification=[1], methods=["first_order"])
+    (fit,) = res.fits
+    assert res.roles == {0: "validation", 1: "identification", 2: "validation"}
+    assert fit.metrics["mse_validation"] < 1e-6
+    assert fit.metrics["ise"] < 1e-5
+
+
+def test_missing_identification_event_is_a_record_error():
+    truth = ProcessModel("first_order", {"K": 2.0, "T": 3.0})
+    rec = step_record(truth, u0=0.0, changes=[(10, 1.0)], t_end=60, dt=0.1, y0=0.0)
+    res = analyse(rec, events_for_identification=[3])
+    assert res.error and "event 3 does not exist" in res.error
