@@ -163,7 +163,9 @@ def _print_ranking(res) -> None:
         has_val = any(r == "validation" for r in res.roles.values())
         tab = Table(title=f"{res.spec.name}: event {i}, ranked by "
                     f"{'validation MSE' if has_val else 'ISE'}")
-        for col in ("#", "method", "parameters", "ISE", "MSE valid.", "fit %"):
+        tab.add_column("#")
+        tab.add_column("method", no_wrap=True)
+        for col in ("parameters", "ISE", "MSE valid.", "fit %"):
             tab.add_column(col)
         for k, f in enumerate(res.ranking(i), 1):
             m = f.metrics
@@ -214,7 +216,8 @@ def methods() -> None:
     from .methods import REGISTRY
 
     tab = Table(title="Methods")
-    for col in ("id", "event", "model", "order", "source"):
+    tab.add_column("id", no_wrap=True)
+    for col in ("event", "model", "order", "source"):
         tab.add_column(col)
     for m in REGISTRY.values():
         tab.add_row(m.id, m.event, m.structure, m.order, m.source)

@@ -34,7 +34,8 @@ def oscillation(tau: np.ndarray, h: np.ndarray, sigma: float, level: float = 1.0
     a = int(up[0])
     down = np.flatnonzero(hs[a:] < level)
     if down.size == 0:
-        raise NotApplicable("the response overshoots but never comes back within the window")
+        raise NotApplicable("no overshoot: the response rises above its final average but "
+                            "never comes back below it (still creeping, not oscillating)")
     b = a + int(down[0])
     t1, h1, _ = extremum(tau, h, a, b, sigma, kind="max")
     back = np.flatnonzero(hs[b:] > level)

@@ -1,0 +1,171 @@
+"""The command line: exit codes, one-line errors without traceback, nothing half-written."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from pipeline.cli import app
+from pipeline.models import ProcessModel
+from pipeline.synth import step_record
+from tests.conftest import have_mirror
+
+runner = CliRunner()
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _csv(tmp_path, name="log.csv", **kw) -> Path:
+    rec = step_record(ProcessModel("first_order", {"K": 2.5, "T": 7.0}), u0=1.5,
+                      changes=[(13.7, 3.5), (113.7, 2.0)], t_end=213.7, dt=0.1, y0=-4.0,
+                      noise=0.02, **kw)
+    p = tmp_path / name
+    lines = ["time,u,y"] + [f"{a:.4f},{b:.6f},{c:.6f}" for a, b, c in zip(rec.t, rec.u, rec.y)]
+    p.write_text("\n".join(lines) + "\n")
+    return p
+
+
+def _one_line_error(result, *needles):
+    assert result.exit_code == 2, result.output
+    err = result.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert "Traceback" not in result.output and "Traceback" not in err
+    for n in needles:
+        assert n in err
+
+
+def test_identify_json_is_the_results_object(tmp_path):
+    p = _csv(tmp_path)
+    r = runner.invoke(app, ["identify", str(p), "--input", "u", "--output", "y", "--time",
+                            "time", "--method", "first_order", "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    (rec,) = doc["records"]
+    assert [e["role"] for e in rec["events"]] == ["identification", "validation"]
+    (fit,) = rec["fits"]
+    assert fit["params"]["K"] == pytest.approx(2.5, rel=0.02)
+    assert fit["params"]["T"] == pytest.approx(7.0, rel=0.02)
+    assert fit["transfer_function"]["den"][1] == 1.0
+    assert fit["metrics"]["mse_validation"] == pytest.approx(0.02**2, rel=0.3)
+
+
+def test_identify_table_and_reports(tmp_path):
+    p = _csv(tmp_path)
+    out = tmp_path / "rep"
+    r = runner.invoke(app, ["identify", str(p), "--input", "u", "--output", "y",
+                            "--time", "time", "--method", "all", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "first_order" in r.stdout
+    assert {"report.html", "report.md", "results.json"} <= {f.name for f in out.iterdir()}
+    html = (out / "report.html").read_text()
+    assert "data:image/png;base64," in html and "<img" in html
+
+
+def test_segment_json(tmp_path):
+    p = _csv(tmp_path)
+    r = runner.invoke(app, ["segment", str(p), "--input", "u", "--output", "y", "--time",
+                            "time", "--json"])
+    assert r.exit_code == 0
+    evs = json.loads(r.stdout)
+    assert [round(e["t0"], 1) for e in evs] == [13.7, 113.7]
+    assert [e["kind"] for e in evs] == ["step", "step"]
+
+
+def test_methods_lists_the_catalogue():
+    r = runner.invoke(app, ["methods"])
+    assert r.exit_code == 0
+    for mid in ("first_order", "second_order_overshoot"):
+        assert mid in r.stdout
+
+
+@pytest.mark.parametrize("args,needles", [
+    (["identify", "missing.csv", "--input", "u", "--output", "y", "--time", "time"],
+     ["missing.csv", "file not found"]),
+    (["identify", "{csv}", "--input", "power", "--output", "y", "--time", "time"],
+     ["no column 'power'"]),
+    (["identify", "{csv}", "--input", "u", "--output", "y"], ["--time"]),
+    (["identify", "{csv}", "--input", "u", "--output", "y", "--time", "time", "--method",
+      "nope"], ["'nope'"]),
+    (["run", "missing.yaml"], ["missing.yaml", "not found"]),
+])
+def test_user_errors_are_one_line_exit_2(tmp_path, args, needles):
+    p = _csv(tmp_path)
+    args = [a.replace("{csv}", str(p)) for a in args]
+    _one_line_error(runner.invoke(app, args), *needles)
+
+
+def _config(tmp_path, body: str) -> Path:
+    c = tmp_path / "cfg.yaml"
+    c.write_text(body)
+    return c
+
+
+def test_run_config_typo_leaves_no_output(tmp_path):
+    p = _csv(tmp_path)
+    c = _config(tmp_path, f"name: t\ndata:\n  path: {p.name}\n  input: u\n  outptu: y\n")
+    out = tmp_path / "out"
+    _one_line_error(runner.invoke(app, ["run", str(c), "--out", str(out)]),
+                    "unknown key 'data.outptu'")
+    assert not out.exists()
+
+
+def test_run_missing_column_leaves_no_output(tmp_path):
+    p = _csv(tmp_path)
+    c = _config(tmp_path, f"name: t\ndata:\n  path: {p.name}\n  input: u\n  output: temp\n"
+                "  time: time\n")
+    out = tmp_path / "out"
+    _one_line_error(runner.invoke(app, ["run", str(c), "--out", str(out), "--workers", "1"]),
+                    "no column 'temp'")
+    assert not out.exists()
+    assert not [f for f in tmp_path.iterdir() if f.name.startswith(".out")]
+
+
+def test_run_missing_data_file_leaves_no_output(tmp_path):
+    c = _config(tmp_path, "name: t\ndata:\n  path: nope.csv\n  input: u\n  output: y\n"
+                "  time: time\n")
+    out = tmp_path / "out"
+    _one_line_error(runner.invoke(app, ["run", str(c), "--out", str(out)]), "nope.csv")
+    assert not out.exists()
+
+
+def test_run_writes_all_reports(tmp_path):
+    p = _csv(tmp_path)
+    c = _config(tmp_path, f"name: t\ndata:\n  path: {p.name}\n  input: u\n  output: y\n"
+                "  time: time\n  units: {{time: s, input: V, output: degC}}\n")
+    out = tmp_path / "out"
+    r = runner.invoke(app, ["run", str(c), "--out", str(out), "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["records"][0]["best"] is not None
+    assert (out / "report.md").read_text().count("![") >= 3
+    assert all((out / "plots").iterdir())
+
+
+def test_subprocess_has_no_traceback(tmp_path):
+    """The installed entry point, as a user runs it."""
+    c = _config(tmp_path, "name: t\ndata:\n  path: x.csv\n  input: u\n  output: y\n  bogus: 1\n")
+    r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(c)], capture_output=True,
+                       text=True)
+    assert r.returncode == 2
+    assert r.stderr.strip().count("\n") == 0 and "Traceback" not in r.stderr
+    assert "unknown key 'data.bogus'" in r.stderr
+
+
+@pytest.mark.skipif(not have_mirror(), reason="needs the DaISy mirror")
+def test_thermal_flagship(tmp_path):
+    """Issue 2's headline: DaISy, first step for identification, five for validation."""
+    out = tmp_path / "thermal"
+    r = runner.invoke(app, ["run", str(ROOT / "configs" / "thermal.yaml"), "--out", str(out),
+                            "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "results.json").read_text())
+    (rec,) = doc["records"]
+    assert [e["role"] for e in rec["events"]] == ["identification"] + ["validation"] * 5
+    fo = next(f for f in rec["fits"] if f["method"] == "first_order")
+    assert 19 <= fo["params"]["K"] <= 23
+    assert 50 <= fo["params"]["T"] <= 70
+    assert 0 < fo["metrics"]["mse_validation"] < 80
+    assert np.isfinite(fo["metrics"]["fit_percent"])
