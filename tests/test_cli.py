@@ -134,7 +134,7 @@ def test_run_missing_data_file_leaves_no_output(tmp_path):
 def test_run_writes_all_reports(tmp_path):
     p = _csv(tmp_path)
     c = _config(tmp_path, f"name: t\ndata:\n  path: {p.name}\n  input: u\n  output: y\n"
-                "  time: time\n  units: {{time: s, input: V, output: degC}}\n")
+                "  time: time\n  units: {time: s, input: V, output: degC}\n")
     out = tmp_path / "out"
     r = runner.invoke(app, ["run", str(c), "--out", str(out), "--workers", "1"])
     assert r.exit_code == 0, r.output
