@@ -69,7 +69,7 @@ def input_threshold(u: np.ndarray, initial_input: float | None, opt: SegmentOpti
 def segment(record: Record, options: SegmentOptions | None = None) -> list[Event]:
     """Find the step and impulse events of ``record`` (see the module docstring)."""
     opt = options or SegmentOptions()
-    t, u, y = record.t, record.u, record.y
+    t, u, _y = record.t, record.u, record.y
     n = u.size
     thr, sigma_u = input_threshold(u, record.initial_input, opt)
     level = (record.initial_input if record.initial_input is not None
@@ -150,7 +150,8 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
         noise = noise_sigma(y[i_base:end])
         if r.kind == "step":
             plateau = u[r.j : end]
-            plateau = plateau[np.abs(plateau - np.median(plateau)) <= thr] if plateau.size else plateau
+            if plateau.size:
+                plateau = plateau[np.abs(plateau - np.median(plateau)) <= thr]
             u_ss = float(trim_mean(plateau, 0.1)) if plateau.size else float(u[r.j])
             u0 = r.level_before if idx == 0 else _level_before(events, r)
             area, dur = 0.0, 0.0

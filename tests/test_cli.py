@@ -23,7 +23,8 @@ def _csv(tmp_path, name="log.csv", **kw) -> Path:
                       changes=[(13.7, 3.5), (113.7, 2.0)], t_end=213.7, dt=0.1, y0=-4.0,
                       noise=0.02, **kw)
     p = tmp_path / name
-    lines = ["time,u,y"] + [f"{a:.4f},{b:.6f},{c:.6f}" for a, b, c in zip(rec.t, rec.u, rec.y)]
+    rows = zip(rec.t, rec.u, rec.y, strict=True)
+    lines = ["time,u,y"] + [f"{a:.4f},{b:.6f},{c:.6f}" for a, b, c in rows]
     p.write_text("\n".join(lines) + "\n")
     return p
 

@@ -41,7 +41,8 @@ def read_dat_frame(path: Path, columns: list[str]) -> pl.DataFrame:
     except FileNotFoundError:
         raise UserError(f"{path}: file not found") from None
     except ValueError as exc:
-        raise UserError(f"{path}: {_one_line(exc)}; expected whitespace-separated numbers") from None
+        raise UserError(
+            f"{path}: {_one_line(exc)}; expected whitespace-separated numbers") from None
     if arr.size == 0:
         raise UserError(f"{path}: the file is empty; expected whitespace-separated numbers")
     if arr.shape[1] != len(columns):

@@ -29,15 +29,17 @@ NOISE_FREE = 1e-7
 
 
 def noise_sigma(y: np.ndarray) -> float:
-    """Noise standard deviation from the median absolute second difference.
+    """Noise standard deviation from the median absolute fourth difference.
 
-    A smooth response has near-zero second differences, white noise of variance s^2 gives
-    second differences of variance 6 s^2; the median makes steps and spikes harmless.
+    A smooth response has near-zero fourth differences (a sampled lag gives about
+    y^(4) dt^4); white noise of variance s^2 gives fourth differences of variance 70 s^2
+    (1+16+36+16+1); the median makes steps and spikes harmless. Second differences would
+    read the curvature of a smooth, finely sampled response as noise.
     """
-    if y.size < 5:
+    if y.size < 9:
         return 0.0
-    d2 = np.diff(y, 2)
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+    d4 = np.diff(y, 4)
+    return float(1.4826 * np.median(np.abs(d4 - np.median(d4))) / math.sqrt(70.0))
 
 
 def normalised(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:

@@ -10,7 +10,7 @@ from scipy.optimize import brentq
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel, second_order_step
-from .base import band_exit_time, extremum, normalised, smooth
+from .base import band_exit_time, crossing_time, extremum, normalised, smooth
 from .registry import MethodResult, register
 
 
@@ -63,6 +63,9 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
        valley/peak ratio ``M = (y_ss - y(t2))/(y(t1) - y_ss)`` (reported as ``zeta_ratio``).
     3. ``zeta = ln(1/M)/sqrt(pi^2 + ln^2 M)``.
     4. ``T0 = t3 - t1`` (two peaks) or ``2 (t2 - t1)``; ``wn = 2 pi/(T0 sqrt(1 - zeta^2))``.
+       The period is read as twice the time between the first two crossings of the steady
+       state (the same half period as peak to valley, but not read at flat noisy tops);
+       the peak reading is kept as ``period_peaks``.
 
     Dead time: the output leaves its noise band at ``t_e``; the undelayed model needs
     ``t_b`` to get there, ``delay = t_e - t_b``. Not applicable without an overshoot.
@@ -76,21 +79,28 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
     zeta = zeta_from_overshoot(M)
     M_ratio = (1.0 - osc["h2"]) / (osc["h1"] - 1.0)
     zeta_ratio = zeta_from_overshoot(M_ratio) if 0 < M_ratio < 1 else None
-    T0 = osc["t3"] - osc["t1"] if osc["t3"] is not None else 2 * (osc["t2"] - osc["t1"])
+    period_peaks = (osc["t3"] - osc["t1"] if osc["t3"] is not None
+                    else 2 * (osc["t2"] - osc["t1"]))
+    # The zeros of h - 1 are exactly half a period apart (a delay shifts both); read between
+    # many samples they are far less noisy than the flat tops of the peaks.
+    c0 = crossing_time(tau, h, 1.0, sigma)
+    c1 = crossing_time(tau, h, 1.0, sigma, start=int(np.searchsorted(tau, osc["t1"])),
+                       falling=True)
+    T0 = 2 * (c1 - c0) if c1 > c0 else period_peaks
     wn = 2 * math.pi / (T0 * math.sqrt(1 - zeta**2))
     t_e, frac = band_exit_time(ev)
-    t_b = _time_to_fraction(zeta, wn, frac)
+    t_b = time_to_fraction(zeta, wn, frac)
     delay = max(0.0, t_e - t_b)
     diag = {"t0": ev.t0, "t_peak1": ev.t0 + osc["t1"], "y_peak1": ev.y0 + osc["h1"] * ev.dy,
             "t_valley1": ev.t0 + osc["t2"], "y_valley1": ev.y0 + osc["h2"] * ev.dy,
             "t_peak2": ev.t0 + osc["t3"] if osc["t3"] is not None else None,
             "overshoot": M, "overshoot_ratio": M_ratio, "zeta_ratio": zeta_ratio,
-            "period": T0, "t_band_exit": ev.t0 + t_e}
+            "period": T0, "period_peaks": period_peaks, "t_band_exit": ev.t0 + t_e}
     return MethodResult(
         ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn, "delay": delay}), diag)
 
 
-def _time_to_fraction(zeta: float, wn: float, frac: float) -> float:
+def time_to_fraction(zeta: float, wn: float, frac: float) -> float:
     """Time the undelayed unit second-order response needs to reach ``frac`` (< first peak)."""
     f = lambda t: second_order_step(np.array([t]), zeta, wn)[0] - frac  # noqa: E731
     hi = math.pi / (wn * math.sqrt(1 - zeta**2))
