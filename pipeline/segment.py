@@ -12,9 +12,10 @@ Algorithm (pure function of the record):
    strength is the area ``A = sum (u - u0) dt`` (zero-order hold). A one-sample spike is a
    pulse too. Otherwise it is a step to a new level (trimmed mean of its plateau).
 4. Each event's window runs to the next event or the end of the record. ``y0`` is the mean
-   of the settled output before ``t0`` (the tail of the previous window) or of the first
-   ``head_samples`` when the event is at the start of the record; ``y_ss`` is the mean over
-   the last ``tail_fraction`` of the window (seed 001 averages the last 11 samples).
+   of the settled output before ``t0``: the whole baseline before the first event, the
+   tail of the previous window before a later one, or the first ``head_samples`` (those
+   still at the starting level) when the event is at the start of the record. ``y_ss`` is
+   the mean over the last ``tail_fraction`` of the window (seed 001 averages the last 11 samples).
 5. A step window shorter than ``settle_time_constants`` times the time the output takes to
    reach 63 % is flagged ``settled = False`` (DaISy's 200 s windows are ~3 time constants).
 """
@@ -141,8 +142,10 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             i_base, base = 0, _head(y[: max(1, min(opt.head_samples, end))],
                                     noise_sigma(y[:end]))
         else:
+            # before the first event the record sits at its operating point: all of it
+            # is settled baseline; later, only the tail of the previous window is
             m = max(opt.min_tail_samples, int(opt.tail_fraction * (r.k - prev)))
-            i_base = max(prev if idx > 0 else 0, r.k - m)
+            i_base = 0 if idx == 0 else max(prev, r.k - m)
             base = y[i_base : r.k]
         y0 = float(np.mean(base))
         m = max(opt.min_tail_samples, int(opt.tail_fraction * (end - r.k)))

@@ -84,6 +84,31 @@ def crossing_time(tau: np.ndarray, h: np.ndarray, level: float, sigma: float = 0
     return _refine_crossing(tau, h, hs, i, t_c, level, sigma)
 
 
+def value_at(tau: np.ndarray, h: np.ndarray, t: float, sigma: float = 0.0,
+             half: float | None = None) -> float:
+    """The response ``h`` at time ``t`` (read off the graph).
+
+    Noise-free: linear interpolation. Noisy: the centre value of a least-squares
+    parabola through the raw samples in a symmetric window around ``t`` (half-width
+    ``half``, by default where the smoothed response changes by about +-0.15); a
+    symmetric window makes the reading unbiased up to the quartic term of the response.
+    """
+    if sigma <= NOISE_FREE or h.size < 7:
+        return float(np.interp(t, tau, h))
+    dt = float(tau[1] - tau[0])
+    if half is None:
+        hs = smooth(h, sigma)
+        slope = abs(float(np.interp(t, tau, np.gradient(hs, tau))))
+        half = 0.15 / slope if slope > 0 else 10 * dt
+        half = max(half, 5 * dt)
+    half = min(half, t - float(tau[0]), float(tau[-1]) - t)
+    sel = np.abs(tau - t) <= half
+    if sel.sum() < 5:
+        return float(np.interp(t, tau, smooth(h, sigma)))
+    c2, c1, c0 = np.polyfit(tau[sel] - t, h[sel], 2)
+    return float(c0)
+
+
 def _interp_cross(t1, t2, h1, h2, level) -> float:
     if h2 == h1:
         return float(t2)

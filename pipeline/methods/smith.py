@@ -1,0 +1,79 @@
+"""Smith's method: a second-order model from the 20 % and 60 % points
+(seed 002 section 2.4, eqs 12-13, Fig. 6).
+
+The model is ``K/(tau^2 s^2 + 2 zeta tau s + 1)``. With ``t20``, ``t60`` the times after
+the step at which the response reaches 20 % and 60 % of its change, Smith's charts
+(computed exactly, :func:`~pipeline.methods.charts.smith_lookup`, ERRATA [S2] 13) give
+``zeta`` from ``t20/t60`` and ``tau`` from ``t60/tau``. Then:
+
+* ``zeta >= 1``: two real lags, eq. (12)-(13): ``T1,2 = tau (zeta +- sqrt(zeta^2 - 1))``
+  (``two_lags``; computed as ``tau/sqrt(r)``, ``tau sqrt(r)`` with ``r = T2/T1`` from the
+  chart, which stays accurate near ``zeta = 1`` and for large zeta);
+* ``zeta < 1``: eq. (13) would give complex constants; the model is the underdamped
+  ``second_order`` with ``wn = 1/tau`` (ERRATA [S2] 13);
+* ``t20/t60`` at or below the first-order limit ``ln(1.25)/ln(2.5) = 0.2435`` (within a
+  relative 1e-5, the precision of interpolated readings on noise-free data, so that an
+  exact single lag does not come out as two lags with ``T2 = 1e-6 T1``): a single lag
+  ``T = t60/ln(2.5)`` (``first_order``), the limit ``zeta -> inf`` of the chart.
+
+No dead time: eq. (12) and the paper's tables have none (ERRATA [S2] 12).
+
+Domain: not applicable when ``t20/t60 >= 0.5551`` (``acos(0.8)/acos(0.4)``, the undamped
+limit): no second-order lag produces such a ratio, which is why the paper finds the
+method "doesn't suit" its 5th-order systems (ratios 0.590, 0.564; ERRATA [S2] 13). Also
+not applicable when the output does not change or never reaches 60 %.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..errors import NotApplicable
+from ..events import EventData
+from ..models import ProcessModel
+from .base import crossing_time, normalised
+from .charts import SMITH_RATIO_MAX, SMITH_RATIO_MIN, smith_lookup
+from .registry import MethodResult, register
+
+#: Relative tolerance on the first-order limit of t20/t60 (reading precision).
+FIRST_ORDER_TOL = 1e-5
+
+
+@register(id="smith", event="step", structure="K/(tau^2 s^2+2 zeta tau s+1)",
+          order="second", source="seed 002 eqs 12-13 and Fig. 6 (Smith); ERRATA [S2] 12, 13",
+          title="Smith (t20/t60, Smith's charts)")
+def smith(ev: EventData) -> MethodResult:
+    """Second-order model from ``t20/t60`` and ``t60/tau`` (seed 002 eqs 12-13).
+
+    See the module docstring for the model cases and the domain.
+    """
+    tau, h, sigma = normalised(ev)
+    t20 = crossing_time(tau, h, 0.20, sigma)
+    t60 = crossing_time(tau, h, 0.60, sigma)
+    if not (t60 > t20 > 0):
+        raise NotApplicable("the 20 % and 60 % points are not separated after the step")
+    ratio = t20 / t60
+    diag = {"t0": ev.t0, "t20": ev.t0 + t20, "y20": ev.y0 + 0.20 * ev.dy,
+            "t60": ev.t0 + t60, "y60": ev.y0 + 0.60 * ev.dy, "ratio_t20_t60": ratio}
+    if ratio >= SMITH_RATIO_MAX:
+        raise NotApplicable(
+            f"t20/t60 = {ratio:.4f} above what any second-order lag can produce "
+            f"({SMITH_RATIO_MAX:.4f}): the process is of higher order")
+    K = ev.dy / ev.du
+    rd = smith_lookup(ratio)
+    if rd.first_order or ratio <= SMITH_RATIO_MIN * (1.0 + FIRST_ORDER_TOL):
+        T = t60 / math.log(2.5)
+        diag |= {"zeta": math.inf, "case": "first-order limit"}
+        return MethodResult(ProcessModel("first_order", {"K": K, "T": T, "delay": 0.0}), diag)
+    tc = t60 / rd.t60_over_tau
+    diag |= {"zeta": rd.zeta, "t60_over_tau": rd.t60_over_tau, "tau": tc}
+    if rd.lag_ratio is not None:  # zeta >= 1: eq. (13)
+        r = rd.lag_ratio
+        diag |= {"case": "two real lags", "lag_ratio": r}
+        model = ProcessModel("two_lags", {"K": K, "T1": tc / math.sqrt(r),
+                                          "T2": tc * math.sqrt(r), "delay": 0.0})
+        return MethodResult(model, diag)
+    diag["case"] = "underdamped"
+    model = ProcessModel("second_order", {"K": K, "zeta": rd.zeta, "wn": 1.0 / tc,
+                                          "delay": 0.0})
+    return MethodResult(model, diag)
