@@ -165,12 +165,15 @@ def _print_ranking(res) -> None:
                     f"{'validation MSE' if has_val else 'ISE'}")
         tab.add_column("#")
         tab.add_column("method", no_wrap=True)
-        for col in ("parameters", "ISE", "MSE valid.", "fit %"):
+        cols = ["parameters", "ISE"] + (["MSE valid.", "fit % valid."] if has_val else [])
+        for col in cols:
             tab.add_column(col)
         for k, f in enumerate(res.ranking(i), 1):
             m = f.metrics
-            tab.add_row(str(k), f.method, params_text(f.model.params), fmt(m.get("ise")),
-                        fmt(m.get("mse_validation")), fmt(m.get("fit_percent"), 3))
+            cells = [str(k), f.method, params_text(f.model.params), fmt(m.get("ise"))]
+            if has_val:
+                cells += [fmt(m.get("mse_validation")), fmt(m.get("fit_percent"), 3)]
+            tab.add_row(*cells)
         out.print(tab)
         for f in res.fits:
             if f.event == i and not f.ok:

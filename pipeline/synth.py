@@ -52,3 +52,43 @@ def step_record(model: ProcessModel, *, u0: float, changes: Sequence[tuple[float
         u = u + np.random.default_rng(None if seed is None else seed + 1).normal(
             0.0, input_noise, size=u.size)
     return make_record(t, u, y, name=name, source=f"<synthetic {name}>")
+
+
+#: Jakoubek's five test systems (seed 002 eqs. 26-30), gain 2, as chains of real lags.
+JAKOUBEK_LAGS: dict[int, tuple[float, ...]] = {
+    1: (0.5,),
+    2: (0.5, 0.5),
+    3: (1.0, 0.1),
+    4: (0.5,) * 5,
+    5: (0.2, 0.4, 0.6, 0.8, 1.0),
+}
+
+
+def lag_chain_step(lags: Sequence[float], t, K: float = 1.0) -> np.ndarray:
+    """Unit step response of K / prod(T_i s + 1) (distinct lags: partial fractions
+    ``1 - sum_i c_i e^{-t/T_i}``, ``c_i = T_i^(n-1) / prod_{j != i}(T_i - T_j)``; equal lags:
+    the incomplete gamma function)."""
+    from scipy.special import gammainc
+
+    t = np.asarray(t, dtype=np.float64)
+    out = np.zeros_like(t)
+    pos = t > 0
+    if len(set(lags)) == 1:
+        out[pos] = gammainc(len(lags), t[pos] / lags[0])
+        return K * out
+    s = np.ones(int(pos.sum()))
+    for i, ti in enumerate(lags):
+        c = ti ** (len(lags) - 1) / np.prod([ti - tj for j, tj in enumerate(lags) if j != i])
+        s -= c * np.exp(-t[pos] / ti)
+    out[pos] = s
+    return K * out
+
+
+def jakoubek_record(system: int, *, dt: float = 1e-3, t0: float = 3.0, after: float = 25.0,
+                    u0: float = 1.0, u1: float = 2.0, y0: float = 5.0) -> Record:
+    """Jakoubek's system ``system`` (1-5) stepped from a nonzero operating point, noise-free
+    and exact on the grid (the input steps on a sample)."""
+    t = np.arange(int(round((t0 + after) / dt)) + 1) * dt
+    u = np.where(t >= t0 - 1e-9, u1, u0)
+    y = y0 + (u1 - u0) * lag_chain_step(JAKOUBEK_LAGS[system], t - t0, K=2.0)
+    return make_record(t, u, y, name=f"jakoubek{system}", source=f"<seed 002 system {system}>")

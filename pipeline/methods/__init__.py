@@ -14,6 +14,15 @@ for _m in pkgutil.iter_modules(__path__):
         importlib.import_module(f"{__name__}.{_m.name}")
 
 
+#: Display order: DESIGN.md's catalogue (registration order is the file listing).
+CATALOGUE = ["first_order", "first_order_two_point", "first_order_impulse",
+             "second_order_overshoot", "second_order_pov", "second_order_impulse",
+             "viteckova1", "viteckova2", "latzel", "harriott", "smith", "strejc", "sundaresan"]
+_order = {mid: k for k, mid in enumerate(CATALOGUE)}
+for _mid in sorted(REGISTRY, key=lambda m: _order.get(m, len(_order))):
+    REGISTRY[_mid] = REGISTRY.pop(_mid)
+
+
 def method_ids(event: str | None = None) -> list[str]:
     """Registered ids in catalogue order, optionally only those for one event kind."""
     return [m.id for m in REGISTRY.values() if event is None or m.event == event]

@@ -137,7 +137,8 @@ def _ident_context(res: RecordResult, i: int, validation: list[int], full: bool,
     groups = {}
     for f in (ranked if full else ranked[:1]):
         groups.setdefault(f.model.order_class if full else "best", []).append(f)
-    for order, fits in groups.items():
+    for order in sorted(groups, key=list(ORDER_TITLES).index if full else None):
+        fits = groups[order]
         label = ORDER_TITLES.get(order, "best model")
         curves = [(f"{f.method}: {f.model.text(3)}", event_simulation(f.model, rec, ev))
                   for f in fits]
