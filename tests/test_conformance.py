@@ -60,7 +60,7 @@ def test_every_method_on_every_event(method, event):
         assert fit.model.K != 0
     else:
         assert fit.reason and len(fit.reason) > 10
-    for before, after in zip(arrays, (ev.t, ev.u, ev.y)):
+    for before, after in zip(arrays, (ev.t, ev.u, ev.y), strict=True):
         assert np.array_equal(before, after)
 
 

@@ -95,4 +95,4 @@ def test_segment_does_not_mutate_record():
     rec = _rec(t, u, y)
     before = [a.copy() for a in (rec.t, rec.u, rec.y)]
     segment(rec)
-    assert all(np.array_equal(a, b) for a, b in zip(before, (rec.t, rec.u, rec.y)))
+    assert all(np.array_equal(a, b) for a, b in zip(before, (rec.t, rec.u, rec.y), strict=True))
