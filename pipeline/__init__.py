@@ -9,7 +9,12 @@ Data conventions (written down once, used everywhere):
   (natural frequency, rad/s) and ``delay`` (dead time, s). There is no second spelling.
 """
 
+import os
 from importlib.metadata import PackageNotFoundError, version
+
+# Many small problems: BLAS threads cost more than they save (2.7x slower in-process on a
+# 2-core machine, BENCHMARKS.md) and oversubscribe the batch pool. A user's setting wins.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 try:
     __version__ = version("pipeline")

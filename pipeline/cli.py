@@ -54,6 +54,11 @@ def run(
     = False,
     progress: Annotated[bool | None, typer.Option(help="progress bar (default: on a terminal)")]
     = None,
+    param_tol: Annotated[float, typer.Option(help="gain drift tolerance (dynamics: 3x)")]
+    = 0.05,
+    mse_tol: Annotated[float, typer.Option(help="validation MSE growth tolerance")] = 0.10,
+    tol: Annotated[list[str] | None, typer.Option(
+        help="per-parameter tolerance, e.g. --tol T=0.1 (repeatable)")] = None,
 ) -> None:
     """Identify and validate every record a config names; write results.json and reports."""
     from .runner import execute
@@ -61,7 +66,8 @@ def run(
     try:
         outcome = execute(config, out_dir=out_dir, workers=workers, executor=executor,
                           scheduler=scheduler, baseline=baseline, junit=junit, history=history,
-                          progress=progress, created=now_iso())
+                          progress=progress, created=now_iso(), param_tol=param_tol,
+                          mse_tol=mse_tol, param_tols=_tolerances(tol or []))
     except UserError as exc:
         raise fail(exc) from None
     for line in outcome.failures:
@@ -72,6 +78,17 @@ def run(
     if code == 3 and allow_failures:
         code = 0
     raise typer.Exit(code)
+
+
+def _tolerances(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise UserError(f"--tol {item!r}: expected PARAMETER=FRACTION, e.g. T=0.1") from None
+    return out
 
 
 # -- identify / segment ------------------------------------------------------------------

@@ -25,7 +25,9 @@ def execute(config: Path, *, out_dir: Path | None = None, workers: int | None = 
             executor: str = "local", scheduler: str | None = None,
             baseline: Path | None = None, junit: Path | None = None,
             history: Path | None = None, progress: bool | None = None,
-            created: str = "") -> Outcome:
+            created: str = "", param_tol: float = 0.05, mse_tol: float = 0.10,
+            param_tols: dict[str, float] | None = None) -> Outcome:
+    """Run a config end to end (see the CLI's ``run``); user errors raise UserError."""
     cfg = load_config(config)
     specs = resolve_specs(cfg)
     results = process_all(specs, cfg, workers=workers, executor=executor,
@@ -37,21 +39,16 @@ def execute(config: Path, *, out_dir: Path | None = None, workers: int | None = 
     extras = Extras()
     messages: list[str] = []
     regressions = 0
+    comparison = None
     if baseline is not None:
         from .baseline import compare, load_results
-        from .report.junit import write_junit
 
-        comparison = compare(doc, load_results(baseline))
+        comparison = compare(doc, load_results(baseline), param_tol=param_tol,
+                             mse_tol=mse_tol, param_tols=param_tols)
         extras.regressions = [f.as_row() for f in comparison.regressions]
-        extras.new = list(comparison.new)
+        extras.new = [str(f) for f in comparison.new]
         regressions = len(comparison.regressions)
-        if junit is not None:
-            write_junit(junit, doc, comparison)
         messages.append(f"{regressions} regression(s) against {baseline}")
-    elif junit is not None:
-        from .report.junit import write_junit
-
-        write_junit(junit, doc, None)
     if history is not None:
         from datetime import datetime
 
@@ -63,6 +60,10 @@ def execute(config: Path, *, out_dir: Path | None = None, workers: int | None = 
     target = out_dir or Path(cfg.output or Path("reports") / cfg.name)
     write_run(target, results, doc, title=cfg.report.title or f"System identification: "
               f"{cfg.name}", extras=extras, markdown=cfg.report.markdown, html=cfg.report.html)
+    if junit is not None:  # after the report: --junit may point into the output folder
+        from .report.junit import write_junit
+
+        write_junit(junit, doc, comparison)
     ok = len(results) - len(failures)
     messages.insert(0, f"{ok} of {len(results)} record(s) identified; reports in {target}/")
     code = 1 if regressions else (3 if failures else 0)

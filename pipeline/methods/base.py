@@ -173,6 +173,9 @@ def band_exit_time(ev: EventData, band_rel: float = 0.01, band_sigma: float = 4.
     the band ``y0 +- max(band_rel |dy|, band_sigma sigma)`` (seed 001 "Time delay")."""
     tau, h, sigma = normalised(ev)
     frac = max(band_rel, band_sigma * sigma)
+    if frac >= 0.5:
+        raise NotApplicable(f"the noise band (+-{frac:.0%} of the change) is too wide to see "
+                            "where the output starts to move")
     hs = smooth(h, sigma)
     out = np.abs(hs) > frac
     if not out.any():

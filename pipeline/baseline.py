@@ -1,0 +1,490 @@
+"""Regression gate: compare a results.json object with a baseline one (pure functions).
+
+Records are matched by ``name``, fits by ``(event, method)``. :func:`compare` returns a
+:class:`Comparison`; it is a regression (exit code 1 in the CLI) when any of these holds:
+
+* **param_drift** - a parameter of a fit that is ok in both moved beyond its tolerance.
+  The change is relative, ``(current - baseline) / scale``, where ``scale`` is
+  ``|baseline|`` except for parameters whose baseline may sensibly be zero or tiny:
+
+  - ``delay`` is compared with the fit's time scale (the mean residence time of its lags:
+    ``T``, ``T1 + T2``, ``n T``, ``max(2 zeta, 1)/wn``), so a dead time of 0.0 that
+    becomes 0.05 s on a 5 s lag is a 1 % change, not an infinite one;
+  - ``T1``, ``T2`` are compared with the dominant lag ``max(T1, T2)``: a minor lag a
+    tenth of the main one is poorly determined by a step, so its change is measured in
+    units of the main lag;
+  - ``zeta`` with ``max(|zeta|, 0.1)``.
+
+  Tolerances: ``param_tols[name]`` when given, else ``param_tol`` for the gain ``K`` and
+  ``dynamics_factor * param_tol`` for the dynamics (``T, T1, T2, n, zeta, wn, delay``).
+  The factor (default 3, so 15 %) is calibrated on noise: a step test pins the gain to a
+  ratio of two averaged plateaus, while the dynamics are read off a few samples of the
+  transient. On first-order-plus-dead-time logs with white noise of 1 % of the step
+  (:mod:`pipeline.synth_logs`; 8 plants, 12 fresh-noise logs each, all 132 ordered
+  pairs, every step method), the gains stayed within 0.9 % while the time constants
+  and dead times moved by up to 5 % (63 % point) and 9 % (two-point methods such as
+  Viteckova's t33/t70): no drift was flagged at the defaults, and a 10 % gain drift was
+  flagged for every method and plant (tests/test_baseline.py repeats both checks on a
+  smaller sample).
+* **structure** - a fit that is ok in both changed its model structure (e.g. Strejc's
+  equal lags vs two lags): reported with ``parameter = "structure"`` and regressing when
+  the unit-step responses differ, somewhere, by more than the dynamics tolerance of the
+  baseline gain (structures near a method's decision boundary flip under noise while
+  the response barely moves). When the new structure is a worse model, the validation
+  MSE rule below flags it (Strejc on a plant whose Tu/Tn sits on the 0.104 boundary).
+* **mse_growth** - the validation MSE grew beyond ``mse_tol`` (relative) *and* beyond
+  the MSE that a parameter change within tolerance can cause: it is a regression when
+  ``current > (1 + mse_tol) baseline + (param_tol * dy)^2``, where ``dy`` is the median
+  output change of the record's step events. Validation MSE on noisy data is the noise
+  variance plus the model error, and a fresh-noise fit moves the model error by several
+  noise variances; the floor keeps that from flagging while a model that got worse by
+  more than a ``param_tol`` gain error on every step still does. With no step events
+  (impulses only) the floor is 0.
+* **status** - a fit that was ok is now ``not_applicable`` or ``failed``, or a record
+  that was ok has now failed.
+* **missing** - a record, or a fit that was ok, is in the baseline but not in the current
+  results (``missing_is_regression=False`` only lists them).
+
+Records and fits present now but not in the baseline, and fits or records that became
+ok, are listed in ``new``: information, never a failure.
+
+:func:`accept` (promote a results.json to be the baseline) is the only function that
+touches files, with :func:`load_results`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import UserError
+
+KINDS = ("param_drift", "mse_growth", "status", "missing", "new")
+DYNAMICS = frozenset({"T", "T1", "T2", "n", "zeta", "wn", "delay"})
+ZETA_FLOOR = 0.1
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One difference between the current results and the baseline.
+
+    ``event`` and ``method`` are ``None`` for record-level findings. ``change`` is the
+    relative change (a fraction; see the module docstring for the scale) for
+    param_drift and mse_growth, ``None`` otherwise. ``tolerance`` is the limit it was
+    compared with.
+    """
+
+    record: str
+    event: int | None
+    method: str | None
+    kind: str
+    parameter: str | None = None
+    baseline_value: float | str | None = None
+    current_value: float | str | None = None
+    change: float | None = None
+    tolerance: float | None = None
+    message: str = ""
+
+    def __str__(self) -> str:
+        return self.message
+
+    @property
+    def where(self) -> str:
+        """``record``, or ``record event N method`` for a fit."""
+        if self.method is None:
+            return self.record
+        return f"{self.record} event {self.event} {self.method}"
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def as_row(self) -> dict[str, str]:
+        """Display strings for a report table: record, event, method, what, baseline,
+        current, change."""
+        what = {"mse_growth": "validation MSE", "status": "status",
+                "missing": "missing", "new": "new"}.get(self.kind, self.parameter or "")
+        return {
+            "record": self.record,
+            "event": "" if self.event is None else str(self.event),
+            "method": self.method or "",
+            "what": what,
+            "baseline": _display(self.baseline_value),
+            "current": _display(self.current_value),
+            "change": "" if self.change is None else _pct(self.change),
+            "message": self.message,
+        }
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The outcome of :func:`compare`: regressions, new items and missing items."""
+
+    regressions: tuple[Finding, ...] = ()
+    new: tuple[Finding, ...] = ()
+    missing: tuple[Finding, ...] = ()
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """True when there is no regression (exit code 0 as far as the gate goes)."""
+        return not self.regressions
+
+    def for_fit(self, record: str, event: int | None, method: str | None) -> list[Finding]:
+        """The regressions of one record (``event``/``method`` None: record-level)."""
+        return [f for f in self.regressions
+                if f.record == record and f.event == event and f.method == method]
+
+    def summary(self) -> str:
+        """One line: counts of regressions, new and missing items."""
+        if self.ok:
+            head = "no regression against the baseline"
+        else:
+            n_rec = len({f.record for f in self.regressions})
+            head = f"{len(self.regressions)} regression(s) in {n_rec} record(s)"
+        return f"{head}; {len(self.new)} new, {len(self.missing)} missing"
+
+    def to_dict(self) -> dict:
+        return {
+            "ok": self.ok,
+            "summary": self.summary(),
+            "settings": dict(self.settings),
+            "regressions": [f.to_dict() for f in self.regressions],
+            "new": [f.to_dict() for f in self.new],
+            "missing": [f.to_dict() for f in self.missing],
+        }
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """The limits :func:`compare` applies (see the module docstring)."""
+
+    param_tol: float = 0.05
+    param_tols: Mapping[str, float] = field(default_factory=dict)
+    dynamics_factor: float = 3.0
+    mse_tol: float = 0.10
+
+    def for_param(self, name: str) -> float:
+        if name in self.param_tols:
+            return float(self.param_tols[name])
+        return self.param_tol * (self.dynamics_factor if name in DYNAMICS else 1.0)
+
+    @property
+    def dynamics(self) -> float:
+        return self.param_tol * self.dynamics_factor
+
+
+# -- the comparison ----------------------------------------------------------------------
+
+def compare(current: dict, baseline: dict, *, param_tol: float = 0.05,
+            param_tols: dict[str, float] | None = None, mse_tol: float = 0.10,
+            dynamics_factor: float = 3.0, missing_is_regression: bool = True) -> Comparison:
+    """Compare two results.json objects (see the module docstring for the rules)."""
+    tol = Tolerances(param_tol, dict(param_tols or {}), dynamics_factor, mse_tol)
+    cur = _by_name(current.get("records", []))
+    base = _by_name(baseline.get("records", []))
+    found: list[Finding] = []
+    for name, b in base.items():
+        found.extend(_compare_record(name, cur.get(name), b, tol))
+    found.extend(_new_item(name, None, None, "record not in the baseline")
+                 for name in cur if name not in base)
+    missing = tuple(f for f in found if f.kind == "missing")
+    regressions = tuple(f for f in found if f.kind not in ("new", "missing") or (
+        f.kind == "missing" and missing_is_regression and f.baseline_value == "ok"))
+    return Comparison(
+        regressions=regressions,
+        new=tuple(f for f in found if f.kind == "new"),
+        missing=missing,
+        settings={"param_tol": param_tol, "param_tols": dict(param_tols or {}),
+                  "dynamics_factor": dynamics_factor, "mse_tol": mse_tol,
+                  "missing_is_regression": missing_is_regression},
+    )
+
+
+def _by_name(records: Iterable[dict]) -> dict[str, dict]:
+    return {str(r["name"]): r for r in records}
+
+
+def _status(obj: dict | None) -> str | None:
+    return None if obj is None else str(obj.get("status", "ok"))
+
+
+def _compare_record(name: str, cur: dict | None, base: dict, tol: Tolerances
+                    ) -> list[Finding]:
+    b_status, c_status = _status(base), _status(cur)
+    if cur is None:
+        return [Finding(name, None, None, "missing", "status", b_status, None,
+                        message=f"{name}: in the baseline ({b_status}) but not in this run")]
+    if b_status == "ok" and c_status != "ok":
+        return [Finding(name, None, None, "status", "status", "ok", c_status,
+                        message=f"{name}: record was ok, now {c_status}: "
+                                f"{cur.get('error') or 'no reason given'}")]
+    if b_status != "ok" and c_status == "ok":
+        return [_new_item(name, None, None, f"record now ok (was {b_status})")]
+    if c_status != "ok":
+        return []
+    return _compare_fits(name, cur, base, tol)
+
+
+def _fits(record: dict) -> dict[tuple[int, str], dict]:
+    return {(int(f["event"]), str(f["method"])): f for f in record.get("fits", [])}
+
+
+def _compare_fits(name: str, cur: dict, base: dict, tol: Tolerances) -> list[Finding]:
+    cf, bf = _fits(cur), _fits(base)
+    dy = step_size(base)
+    out: list[Finding] = []
+    for key, b in sorted(bf.items()):
+        event, method = key
+        c = cf.get(key)
+        where = f"{name} event {event} {method}"
+        if c is None:
+            out.append(Finding(name, event, method, "missing", "status", _status(b), None,
+                               message=f"{where}: in the baseline ({_status(b)}) but not "
+                                       "in this run"))
+        elif _status(b) == "ok" and _status(c) != "ok":
+            out.append(Finding(name, event, method, "status", "status", "ok", _status(c),
+                               message=f"{where}: was ok, now {_status(c)}: "
+                                       f"{c.get('reason') or 'no reason given'}"))
+        elif _status(b) != "ok" and _status(c) == "ok":
+            out.append(_new_item(name, event, method, f"now ok (was {_status(b)})"))
+        elif _status(b) == "ok":
+            out.extend(param_findings(name, event, method, b, c, tol))
+            out.extend(mse_findings(name, event, method, b, c, tol, dy))
+    out.extend(_new_item(name, e, m, "fit not in the baseline")
+               for (e, m) in sorted(cf) if (e, m) not in bf)
+    return out
+
+
+def _new_item(record: str, event: int | None, method: str | None, what: str) -> Finding:
+    where = record if method is None else f"{record} event {event} {method}"
+    return Finding(record, event, method, "new", message=f"{where} ({what})")
+
+
+# -- parameters --------------------------------------------------------------------------
+
+def time_scale(structure: str | None, params: Mapping[str, float]) -> float:
+    """Mean residence time of the model's lags (the sum of its time constants), seconds.
+
+    ``max(2 zeta, 1)/wn`` for the second-order structure (``2 zeta/wn`` is the sum of its
+    time constants; a lightly damped one still moves on the time scale ``1/wn``).
+    NaN when the parameters do not say.
+    """
+    p = {k: float(v) for k, v in params.items() if _is_number(v)}
+    if "T1" in p and "T2" in p:
+        return abs(p["T1"]) + abs(p["T2"])
+    if "T" in p:
+        return abs(p["T"]) * max(p.get("n", 1.0), 0.0)
+    if "wn" in p and p["wn"] > 0:
+        return max(2.0 * p.get("zeta", 0.5), 1.0) / p["wn"]
+    return math.nan
+
+
+def param_scale(name: str, structure: str | None, params: Mapping[str, float]) -> float:
+    """The magnitude a change of parameter ``name`` is measured against (module docstring)."""
+    value = abs(float(params.get(name, 0.0)))
+    if name == "delay":
+        ts = time_scale(structure, params)
+        return max(value, ts) if math.isfinite(ts) else value
+    if name in ("T1", "T2"):
+        return max(abs(float(params.get("T1", 0.0))), abs(float(params.get("T2", 0.0))))
+    if name == "zeta":
+        return max(value, ZETA_FLOOR)
+    return value
+
+
+def relative_change(name: str, structure: str | None, base_params: Mapping[str, float],
+                    current: float) -> float:
+    """``(current - baseline) / scale``; 0 when both are 0, +-inf from a zero scale."""
+    b = float(base_params.get(name, 0.0))
+    diff = float(current) - b
+    if diff == 0:
+        return 0.0
+    scale = param_scale(name, structure, base_params)
+    return diff / scale if scale > 0 else math.copysign(math.inf, diff)
+
+
+def param_findings(record: str, event: int, method: str, base: dict, cur: dict,
+                   tol: Tolerances) -> list[Finding]:
+    """Parameter drift (or a structure change) of one fit that is ok in both runs."""
+    bs, cs = base.get("structure"), cur.get("structure")
+    bp, cp = dict(base.get("params") or {}), dict(cur.get("params") or {})
+    where = f"{record} event {event} {method}"
+    out = []
+    names = set(bp) | set(cp)
+    if bs != cs or set(bp) - {"delay"} != set(cp) - {"delay"}:
+        # another structure: only the gain and the dead time keep their meaning
+        out.extend(_structure_findings(record, event, method, base, cur, tol))
+        names = {"K", "delay"} & names
+    for name in sorted(names, key=_param_order):
+        default = 0.0 if name == "delay" else None  # no delay entry: no dead time
+        b, c = bp.get(name, default), cp.get(name, default)
+        if not (_is_number(b) and _is_number(c)):
+            continue
+        b, c = float(b), float(c)
+        change = relative_change(name, bs, bp, c)
+        limit = tol.for_param(name)
+        if abs(change) > limit:
+            out.append(Finding(
+                record, event, method, "param_drift", name, b, c, change, limit,
+                message=f"{where}: {name} drifted {_pct(change)} ({_num(b)} -> {_num(c)}; "
+                        f"tolerance {_pct(limit, sign=False)}{_scale_note(name, bs, bp)})"))
+    return out
+
+
+def _structure_findings(record, event, method, base, cur, tol: Tolerances) -> list[Finding]:
+    bs, cs = base.get("structure"), cur.get("structure")
+    dist = step_response_distance(bs, base.get("params") or {}, cs, cur.get("params") or {})
+    if math.isfinite(dist) and dist <= tol.dynamics:
+        return []
+    return [Finding(
+        record, event, method, "param_drift", "structure", str(bs), str(cs), dist,
+        tol.dynamics,
+        message=f"{record} event {event} {method}: model structure changed {bs} -> {cs}; "
+                f"step responses differ by up to {_pct(dist, sign=False)} of the gain "
+                f"(tolerance {_pct(tol.dynamics, sign=False)})")]
+
+
+def step_response_distance(structure_a: str | None, params_a: Mapping[str, float],
+                           structure_b: str | None, params_b: Mapping[str, float],
+                           n_points: int = 2001) -> float:
+    """``max_t |S_b(t) - S_a(t)| / |K_a|`` over the unit-step responses (inf if unknown).
+
+    The horizon is ten time scales plus the longer dead time, so both have settled.
+    """
+    from .models import ProcessModel
+
+    try:
+        a = ProcessModel(str(structure_a), {k: float(v) for k, v in params_a.items()})
+        b = ProcessModel(str(structure_b), {k: float(v) for k, v in params_b.items()})
+    except (ValueError, TypeError):
+        return math.inf
+    ts = max(time_scale(a.structure, a.params), time_scale(b.structure, b.params))
+    if not math.isfinite(ts) or ts <= 0 or a.K == 0:
+        return math.inf
+    t = np.linspace(0.0, 10.0 * ts + max(a.delay, b.delay), n_points)
+    return float(np.max(np.abs(b.unit_step(t) - a.unit_step(t))) / abs(a.K))
+
+
+# -- validation MSE ----------------------------------------------------------------------
+
+def step_size(record: dict) -> float:
+    """Median ``|y_ss - y0|`` over the record's step events (0 when there are none)."""
+    dys = [abs(float(e["y_ss"]) - float(e["y0"])) for e in record.get("events", [])
+           if e.get("kind", "step") == "step" and _is_number(e.get("y_ss"))
+           and _is_number(e.get("y0"))]
+    return float(np.median(dys)) if dys else 0.0
+
+
+def mse_limit(baseline_mse: float, tol: Tolerances, dy: float) -> float:
+    """The largest current validation MSE that is not a regression."""
+    return (1.0 + tol.mse_tol) * baseline_mse + (tol.param_tol * dy) ** 2
+
+
+def mse_findings(record: str, event: int, method: str, base: dict, cur: dict,
+                 tol: Tolerances, dy: float) -> list[Finding]:
+    """Validation MSE growth of one fit that is ok in both runs (NaN: not compared)."""
+    b = (base.get("metrics") or {}).get("mse_validation")
+    c = (cur.get("metrics") or {}).get("mse_validation")
+    if not (_is_number(b) and _is_number(c)):
+        return []
+    b, c = float(b), float(c)
+    limit = mse_limit(b, tol, dy)
+    if c <= limit:
+        return []
+    change = (c - b) / b if b > 0 else math.inf
+    return [Finding(
+        record, event, method, "mse_growth", "mse_validation", b, c, change, tol.mse_tol,
+        message=f"{record} event {event} {method}: validation MSE grew {_pct(change)} "
+                f"({_num(b)} -> {_num(c)}; limit {_num(limit)} = (1 + "
+                f"{_pct(tol.mse_tol, sign=False)}) baseline + ({tol.param_tol:g} * step "
+                f"{_num(dy)})^2)")]
+
+
+# -- formatting helpers ------------------------------------------------------------------
+
+_ORDER = ("K", "T", "T1", "T2", "n", "zeta", "wn", "delay")
+
+
+def _param_order(name: str) -> tuple[int, str]:
+    return (_ORDER.index(name) if name in _ORDER else len(_ORDER), name)
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _display(v) -> str:
+    if v is None:
+        return "-"
+    return _num(v) if _is_number(v) else str(v)
+
+
+def _num(v: float) -> str:
+    return f"{v:.4g}"
+
+
+def _pct(x: float, sign: bool = True) -> str:
+    if not math.isfinite(x):
+        return "inf" if x > 0 else "-inf"
+    return f"{x * 100:+.1f} %" if sign else f"{x * 100:.1f} %"
+
+
+def _scale_note(name: str, structure: str | None, params: Mapping[str, float]) -> str:
+    if name in ("delay", "T1", "T2", "zeta"):
+        scale = param_scale(name, structure, params)
+        if scale != abs(float(params.get(name, 0.0))):
+            return f", relative to {_num(scale)}"
+    return ""
+
+
+# -- files (the edges) -------------------------------------------------------------------
+
+def load_results(path: str | os.PathLike) -> dict:
+    """Read a results.json (or baseline) file; a problem is a one-line :class:`UserError`."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UserError(f"{p}: results file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{p}: cannot read the results file ({exc})") from None
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise UserError(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("records"), list):
+        raise UserError(f"{p}: not a results.json file; expected an object with a "
+                        "'records' list")
+    return doc
+
+
+def accept(results_path: str | os.PathLike, to_path: str | os.PathLike) -> Path:
+    """Make ``results_path`` the baseline at ``to_path`` (validated, written atomically).
+
+    The bytes are copied unchanged; the target folder is created. Returns ``to_path``.
+    """
+    src = Path(results_path)
+    load_results(src)  # refuse to accept something that is not a results file
+    dst = Path(to_path)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(dst, src.read_bytes())
+    return dst
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path``, then ``os.replace`` it."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

@@ -1,0 +1,121 @@
+"""Run history: one parquet file that grows by one row per record, event and method per run.
+
+Columns (one schema, :data:`SCHEMA`): ``time`` (the run, UTC), ``record``, ``event``,
+``method``, ``status``, ``structure``, ``best`` (the record's best fit), each parameter
+``K, T, T1, T2, n, zeta, wn, delay`` (null when the model has no such parameter),
+``mse_validation, mse_identification, ise, fit_percent`` (null when not computed) and
+``pipeline_version``. A record that failed has one row with null event and method and
+status ``failed``.
+
+:func:`history_rows` is pure; :func:`append_history` reads the existing file, appends
+(polars ``concat(how="diagonal_relaxed")``, so files written by older versions with fewer
+columns still append), writes a temporary file and renames it over the old one.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from datetime import UTC, datetime
+from pathlib import Path
+
+import polars as pl
+
+from .errors import UserError
+
+PARAMS = ("K", "T", "T1", "T2", "n", "zeta", "wn", "delay")
+METRICS = ("mse_validation", "mse_identification", "ise", "fit_percent")
+
+SCHEMA: dict[str, pl.DataType] = {
+    "time": pl.Datetime("us", "UTC"),
+    "record": pl.String(),
+    "event": pl.Int64(),
+    "method": pl.String(),
+    "status": pl.String(),
+    "structure": pl.String(),
+    "best": pl.Boolean(),
+    **{p: pl.Float64() for p in PARAMS},
+    **{m: pl.Float64() for m in METRICS},
+    "pipeline_version": pl.String(),
+}
+
+
+def as_utc(run_time: datetime | None) -> datetime:
+    """``run_time`` in UTC; a naive time is taken as UTC, ``None`` is now."""
+    if run_time is None:
+        return datetime.now(UTC)
+    if run_time.tzinfo is None:
+        return run_time.replace(tzinfo=UTC)
+    return run_time.astimezone(UTC)
+
+
+def history_rows(results: dict, run_time: datetime | None) -> pl.DataFrame:
+    """The rows one run adds: one per record, event and method (pure)."""
+    t = as_utc(run_time)
+    version = results.get("pipeline_version")
+    rows = []
+    for rec in results.get("records", []):
+        base = {"time": t, "record": str(rec["name"]), "pipeline_version": version}
+        if rec.get("status", "ok") != "ok":
+            rows.append({**base, "status": rec.get("status", "failed")})
+            continue
+        best = rec.get("best") or {}
+        for fit in rec.get("fits", []):
+            params = fit.get("params") or {}
+            metrics = fit.get("metrics") or {}
+            rows.append({
+                **base, "event": int(fit["event"]), "method": str(fit["method"]),
+                "status": fit.get("status", "ok"), "structure": fit.get("structure"),
+                "best": (best.get("method") == fit["method"]
+                         and best.get("event") == fit["event"]),
+                **{p: _number(params.get(p)) for p in PARAMS},
+                **{m: _number(metrics.get(m)) for m in METRICS},
+            })
+    return pl.DataFrame(rows, schema=SCHEMA)
+
+
+def _number(v) -> float | None:
+    if isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v):
+        return float(v)
+    return None
+
+
+def append_history(path: str | os.PathLike, results: dict,
+                   run_time: datetime | None = None) -> pl.DataFrame:
+    """Append the rows of one run (``results``: a results.json object) to the parquet file
+    at ``path`` (created with its folder when absent); returns the whole history."""
+    p = Path(path)
+    new = history_rows(results, run_time)
+    frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() else new
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        frame.write_parquet(tmp)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return frame
+
+
+def load_history(path: str | os.PathLike) -> pl.DataFrame:
+    """The history at ``path``, sorted by time (stable within a run)."""
+    p = Path(path)
+    if not p.exists():
+        raise UserError(f"{p}: history file not found")
+    try:
+        frame = pl.read_parquet(p)
+    except (OSError, pl.exceptions.PolarsError) as exc:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise UserError(f"{p}: not a readable parquet history file ({first})") from None
+    if "time" not in frame.columns or "record" not in frame.columns:
+        raise UserError(f"{p}: not a pipeline history file; expected columns time, record, "
+                        "event, method, ...")
+    return frame.sort("time", maintain_order=True)
+
+
+def run_times(frame: pl.DataFrame) -> list[datetime]:
+    """The distinct run times of a history, oldest first."""
+    return frame.get_column("time").unique().sort().to_list()

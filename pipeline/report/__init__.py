@@ -1,0 +1,1 @@
+"""Reports: results.json, Markdown and HTML with plots, JUnit XML, history plots."""

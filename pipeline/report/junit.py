@@ -1,0 +1,156 @@
+"""JUnit XML for CI: one testsuite, one testcase per record and method.
+
+Testcases (``classname`` = the record name):
+
+* ``name = "event N / method"`` for each fit of the current run: passes, or one
+  ``<failure>`` per regression of that fit (type = the finding's kind, the message names
+  record, method, parameter, baseline, current and change); ``not_applicable`` and
+  ``failed`` fits that are not regressions are ``<skipped>`` with their reason;
+* ``name = "record"`` for a record that failed to load or analyse (``<error>``, its one-line
+  reason; a ``<failure>`` too when it was ok in the baseline) and for record-level
+  regressions (a record missing from the run);
+* a fit that was in the baseline but is missing now gets its own testcase with a failure
+  when it counts as a regression.
+
+Built with :mod:`xml.etree.ElementTree`; :func:`write_junit` is the only file access.
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from ..baseline import Comparison, Finding, write_atomic
+
+SUITE = "pipeline"
+
+
+def junit_xml(current: dict, comparison: Comparison | None = None) -> str:
+    """The JUnit XML document of a results.json object and its comparison (or none)."""
+    comparison = comparison or Comparison()
+    suite = ET.Element("testsuite", {"name": _suite_name(current)})
+    if current.get("created"):
+        suite.set("timestamp", str(current["created"]))
+    _properties(suite, current, comparison)
+    seen: set[tuple[str, int | None, str | None]] = set()
+    for rec in current.get("records", []):
+        name = str(rec["name"])
+        if rec.get("status", "ok") != "ok":
+            suite.append(_failed_record_case(rec, comparison.for_fit(name, None, None)))
+            seen.add((name, None, None))
+            continue
+        for fit in rec.get("fits", []):
+            key = (name, int(fit["event"]), str(fit["method"]))
+            seen.add(key)
+            suite.append(_fit_case(name, fit, comparison.for_fit(*key)))
+    for key in _unseen_keys(comparison, seen):
+        suite.append(_orphan_case(key, comparison.for_fit(*key)))
+    _count(suite)
+    root = ET.Element("testsuites", {"name": SUITE})
+    root.append(suite)
+    for attr in ("tests", "failures", "errors", "skipped"):
+        root.set(attr, suite.get(attr, "0"))
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def write_junit(path: str | os.PathLike, current: dict,
+                comparison: Comparison | None = None) -> Path:
+    """Write :func:`junit_xml` to ``path`` atomically (temporary file, then rename)."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(p, junit_xml(current, comparison).encode("utf-8"))
+    return p
+
+
+# -- testcases ---------------------------------------------------------------------------
+
+def _suite_name(current: dict) -> str:
+    config = current.get("config")
+    return f"{SUITE}: {config}" if config else SUITE
+
+
+def _properties(suite: ET.Element, current: dict, comparison: Comparison) -> None:
+    props = ET.SubElement(suite, "properties")
+    items = {"pipeline_version": current.get("pipeline_version"),
+             "config": current.get("config"),
+             "baseline_summary": comparison.summary() if comparison.settings else None}
+    items.update({f"tolerance.{k}": v for k, v in comparison.settings.items()})
+    for key, value in items.items():
+        if value is not None:
+            ET.SubElement(props, "property", {"name": key, "value": str(value)})
+
+
+def _case(record: str, name: str) -> ET.Element:
+    return ET.Element("testcase", {"classname": record, "name": name, "time": "0"})
+
+
+def _fit_case(record: str, fit: dict, findings: list[Finding]) -> ET.Element:
+    case = _case(record, f"event {fit['event']} / {fit['method']}")
+    for f in findings:
+        _add_failure(case, f)
+    status = fit.get("status", "ok")
+    if not findings and status != "ok":
+        reason = fit.get("reason") or "no reason given"
+        text = reason if status == "not_applicable" else f"method failed: {reason}"
+        ET.SubElement(case, "skipped", {"message": text, "type": status})
+    return case
+
+
+def _failed_record_case(rec: dict, findings: list[Finding]) -> ET.Element:
+    case = _case(str(rec["name"]), "record")
+    error = rec.get("error") or "; ".join(rec.get("errors") or []) or "record failed"
+    err = ET.SubElement(case, "error", {"message": error, "type": "failed"})
+    err.text = f"record: {rec['name']}\nsource: {rec.get('source', '')}\nerror: {error}"
+    for f in findings:
+        _add_failure(case, f)
+    return case
+
+
+def _orphan_case(key: tuple[str, int | None, str | None], findings: list[Finding]
+                 ) -> ET.Element:
+    record, event, method = key
+    case = _case(record, "record" if method is None else f"event {event} / {method}")
+    for f in findings:
+        _add_failure(case, f)
+    return case
+
+
+def _unseen_keys(comparison: Comparison, seen: set) -> list[tuple[str, int | None, str | None]]:
+    keys: list[tuple[str, int | None, str | None]] = []
+    for f in comparison.regressions:
+        key = (f.record, f.event, f.method)
+        if key not in seen and key not in keys:
+            keys.append(key)
+    return keys
+
+
+def _add_failure(case: ET.Element, f: Finding) -> None:
+    el = ET.SubElement(case, "failure", {"message": f.message, "type": f.kind})
+    lines = [f"record: {f.record}", f"event: {'-' if f.event is None else f.event}",
+             f"method: {f.method or '-'}", f"kind: {f.kind}"]
+    row = f.as_row()
+    if f.parameter:
+        lines.append(f"parameter: {f.parameter}")
+    lines += [f"baseline: {_value(f.baseline_value)}", f"current: {_value(f.current_value)}"]
+    if f.change is not None:
+        lines.append(f"change: {row['change']}")
+    if f.tolerance is not None:
+        lines.append(f"tolerance: {f.tolerance * 100:.1f} %")
+    el.text = "\n".join(lines)
+
+
+def _value(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return "-" if v is None else str(v)
+
+
+def _count(suite: ET.Element) -> None:
+    cases = suite.findall("testcase")
+    suite.set("tests", str(len(cases)))
+    suite.set("failures", str(sum(1 for c in cases if c.find("failure") is not None
+                                  and c.find("error") is None)))
+    suite.set("errors", str(sum(1 for c in cases if c.find("error") is not None)))
+    suite.set("skipped", str(sum(1 for c in cases if c.find("skipped") is not None)))
