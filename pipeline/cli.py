@@ -292,12 +292,14 @@ def datasets_synth(
     n: Annotated[int, typer.Option("--n", help="number of logs")] = 20,
     seed: Annotated[int, typer.Option(help="random seed")] = 0,
     gain_drift: Annotated[float, typer.Option(help="relative gain change, e.g. 0.1")] = 0.0,
+    noise_seed: Annotated[int | None, typer.Option(help="fresh noise, same plants")] = None,
     corrupt: Annotated[int, typer.Option(help="how many of the logs to corrupt")] = 0,
 ) -> None:
     """Write synthetic step-test logs with known plants (for examples and CI)."""
     from .synth_logs import write_synthetic_logs
 
-    paths = write_synthetic_logs(folder, n, seed=seed, gain_drift=gain_drift, corrupt=corrupt)
+    paths = write_synthetic_logs(folder, n, seed=seed, gain_drift=gain_drift, corrupt=corrupt,
+                                 noise_seed=noise_seed)
     out.print(f"wrote {len(paths)} logs to {folder}", markup=False)
 
 

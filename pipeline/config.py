@@ -71,6 +71,7 @@ class ReportConfig(_Strict):
     title: str | None = None
     html: bool = True
     markdown: bool = True
+    plots: Literal["auto", "full", "summary", "none"] = "auto"
 
 
 class RunConfig(_Strict):

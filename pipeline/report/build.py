@@ -26,7 +26,7 @@ from . import plots
 
 ORDER_TITLES = {"first": "first-order models", "second": "second-order models",
                 "nth": "n-th order models"}
-MAX_FULL_RECORDS = 20  # above this, per-record sections keep only the key plots
+MAX_FULL_RECORDS = 20  # "auto": above this, per-record sections keep one overview plot
 
 
 @dataclass
@@ -80,7 +80,7 @@ def _marks(diag: dict) -> list[tuple[float, float, str]]:
     return out
 
 
-def _record_context(res: RecordResult, full: bool, add) -> dict:
+def _record_context(res: RecordResult, mode: str, add) -> dict:
     rec = res.record
     ctx = {"name": res.spec.name, "anchor": _slug(res.spec.name), "ok": res.ok,
            "error": res.error, "source": rec.source if rec else res.spec.path,
@@ -97,16 +97,16 @@ def _record_context(res: RecordResult, full: bool, add) -> dict:
         "area": fmt(e.area) if e.kind == "impulse" else "-",
         "y0": fmt(e.y0), "y_ss": fmt(e.y_ss), "settled": "yes" if e.settled else "NO (short)",
     } for e in res.events]
-    if res.events:
+    if res.events and mode != "none":
         ctx["overview"] = add(f"{ctx['anchor']}_overview",
                               "Record with events", plots.overview(rec, res.events, res.roles))
     validation = [i for i, r in res.roles.items() if r == "validation"]
     for i in sorted(i for i, r in res.roles.items() if r == "identification"):
-        ctx["ident"].append(_ident_context(res, i, validation, full, add, ctx["anchor"]))
+        ctx["ident"].append(_ident_context(res, i, validation, mode, add, ctx["anchor"]))
     return ctx
 
 
-def _ident_context(res: RecordResult, i: int, validation: list[int], full: bool, add,
+def _ident_context(res: RecordResult, i: int, validation: list[int], mode: str, add,
                    anchor: str) -> dict:
     rec, ev = res.record, res.events[i]
     ranked = res.ranking(i)
@@ -125,7 +125,7 @@ def _ident_context(res: RecordResult, i: int, validation: list[int], full: bool,
     out = {"index": i, "kind": ev.kind, "rows": rows, "other": other,
            "criterion": "validation MSE" if validation else "ISE on the identification event",
            "figures": []}
-    if not ranked:
+    if not ranked or mode in ("summary", "none"):
         return out
     unit = rec.units.get("output")
     sq = f" [{unit}^2]" if unit else ""
@@ -135,14 +135,14 @@ def _ident_context(res: RecordResult, i: int, validation: list[int], full: bool,
         f"Event {i}: methods ranked by {out['criterion']} (lower is better)")))
     sl = slice(ev.i_start, ev.i_end)
     groups = {}
-    for f in (ranked if full else ranked[:1]):
-        groups.setdefault(f.model.order_class if full else "best", []).append(f)
-    for order in sorted(groups, key=list(ORDER_TITLES).index if full else None):
+    for f in ranked:
+        groups.setdefault(f.model.order_class, []).append(f)
+    for order in sorted(groups, key=list(ORDER_TITLES).index):
         fits = groups[order]
         label = ORDER_TITLES.get(order, "best model")
         curves = [(f"{f.method}: {f.model.text(3)}", event_simulation(f.model, rec, ev))
                   for f in fits]
-        marks = _marks(fits[0].diagnostics) if order in ("first", "best") else []
+        marks = _marks(fits[0].diagnostics) if order == "first" else []
         out["figures"].append(add(
             f"{anchor}_e{i}_ident_{order}", f"Identification event {i}: {label}",
             plots.overlay(rec, sl, curves, f"Identification event {i}: measured vs {label}",
@@ -192,9 +192,14 @@ def summary_rows(results: list[RecordResult]) -> list[dict]:
     return rows
 
 
-def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras | None = None
-           ) -> tuple[str, str, dict[str, bytes]]:
-    """``(markdown, html, {png file name: bytes})`` for a run."""
+def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras | None = None,
+           plots_mode: str = "auto") -> tuple[str, str, dict[str, bytes]]:
+    """``(markdown, html, {png file name: bytes})`` for a run.
+
+    ``plots_mode``: "full" (overview, ranking bars and the overlay views per record),
+    "summary" (one overview per record), "none" (tables only), "auto" (full up to
+    :data:`MAX_FULL_RECORDS` records, else summary).
+    """
     files: dict[str, bytes] = {}
 
     def add(stem: str, fig_title: str, png: bytes) -> Figure:
@@ -202,13 +207,14 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
         files[name] = png
         return Figure(fig_title, png, name)
 
-    full = len(results) <= MAX_FULL_RECORDS
+    mode = plots_mode if plots_mode != "auto" else (
+        "full" if len(results) <= MAX_FULL_RECORDS else "summary")
     extras = extras or Extras()
     history = [add(f"history_{k}", t, png) for k, (t, png) in enumerate(extras.history)]
     ctx = {
-        "title": title, "doc": doc, "records": [_record_context(r, full, add) for r in results],
+        "title": title, "doc": doc, "records": [_record_context(r, mode, add) for r in results],
         "summary": summary_rows(results), "extras": extras, "history": history,
-        "n_failed": sum(not r.ok for r in results), "full": full,
+        "n_failed": sum(not r.ok for r in results), "plots_mode": mode,
     }
     env = Environment(loader=PackageLoader("pipeline", "report/templates"),
                       autoescape=select_autoescape(["html.j2"]), trim_blocks=True,
@@ -219,11 +225,12 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
 
 
 def write_run(out_dir: Path, results: list[RecordResult], doc: dict, *, title: str,
-              extras: Extras | None = None, markdown: bool = True, html: bool = True) -> Path:
+              extras: Extras | None = None, markdown: bool = True, html: bool = True,
+              plots_mode: str = "auto") -> Path:
     """Write results.json, report.md (+ plots/) and report.html atomically into ``out_dir``."""
     out_dir = Path(out_dir)
     out_dir.parent.mkdir(parents=True, exist_ok=True)
-    md, page, files = render(results, doc, title=title, extras=extras)
+    md, page, files = render(results, doc, title=title, extras=extras, plots_mode=plots_mode)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
     try:
         (tmp / "results.json").write_text(json.dumps(doc, indent=1, default=_json_default,
