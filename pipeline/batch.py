@@ -152,22 +152,31 @@ def single_threaded_workers() -> Iterator[None]:
 
 
 def _run_pool(specs: list, cfg, job: Job, n: int, tracker: Tracker) -> list:
+    """Records in a process pool; the parent works too, from the back of the queue.
+
+    Starting the workers costs seconds (the fork server imports numpy, scipy, polars).
+    Instead of waiting, the parent takes the last queued records itself: a future that is
+    still pending can be cancelled and run here; it stops when it meets a record the
+    pool has already claimed. Results are the same either way (pure per-record jobs).
+    """
     out: list = [None] * len(specs)
     with ProcessPoolExecutor(max_workers=n, mp_context=pool_context()) as pool:
-        with single_threaded_workers():  # the workers start at the first submissions
-            futures: dict[Future, int] = {pool.submit(job, spec, cfg): i
-                                          for i, spec in enumerate(specs)}
-        try:
-            for fut in as_completed(futures):
-                i = futures[fut]
-                try:
-                    out[i] = fut.result()
-                except Exception as exc:  # a worker died (BrokenProcessPool) or it raised
-                    out[i] = crashed(specs[i], exc)
-                tracker.done(out[i])
-        except BaseException:  # Ctrl-C: do not start the records still queued
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
+        futures: dict[Future, int] = {pool.submit(job, spec, cfg): i
+                                      for i, spec in enumerate(specs)}
+        stolen = set()
+        for fut in reversed(list(futures)):
+            if not fut.cancel():
+                break
+            i = futures[fut]
+            stolen.add(fut)
+            out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
+        for fut in as_completed([f for f in futures if f not in stolen]):
+            i = futures[fut]
+            try:
+                out[i] = fut.result()
+            except Exception as exc:  # a worker died (BrokenProcessPool) or the job raised
+                out[i] = crashed(specs[i], exc)
+            tracker.done(out[i])
     return out
 
 
