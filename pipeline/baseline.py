@@ -57,7 +57,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -65,6 +64,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import UserError
+from .files import read_text, write_atomic
 
 KINDS = ("param_drift", "mse_growth", "status", "missing", "new")
 DYNAMICS = frozenset({"T", "T1", "T2", "n", "zeta", "wn", "delay"})
@@ -449,12 +449,7 @@ def _scale_note(name: str, structure: str | None, params: Mapping[str, float]) -
 def load_results(path: str | os.PathLike) -> dict:
     """Read a results.json (or baseline) file; a problem is a one-line :class:`UserError`."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserError(f"{p}: results file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{p}: cannot read the results file ({exc})") from None
+    text = read_text(p, "results file")
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
@@ -476,15 +471,3 @@ def accept(results_path: str | os.PathLike, to_path: str | os.PathLike) -> Path:
     dst.parent.mkdir(parents=True, exist_ok=True)
     write_atomic(dst, src.read_bytes())
     return dst
-
-
-def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then ``os.replace`` it."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -13,6 +13,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from .errors import UserError
+from .files import read_text
 
 
 class _Strict(BaseModel):
@@ -109,12 +110,7 @@ class RunConfig(_Strict):
 def load_config(path: str | Path) -> RunConfig:
     """Read and validate a YAML config file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserError(f"{path}: config file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: cannot read the config ({exc})") from None
+    text = read_text(path, "config file")
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as exc:

@@ -14,15 +14,16 @@ columns still append), writes a temporary file and renames it over the old one.
 
 from __future__ import annotations
 
+import io
 import math
 import os
-import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 
 import polars as pl
 
 from .errors import UserError
+from .files import write_atomic
 
 PARAMS = ("K", "T", "T1", "T2", "n", "zeta", "wn", "delay")
 METRICS = ("mse_validation", "mse_identification", "ise", "fit_percent")
@@ -89,14 +90,9 @@ def append_history(path: str | os.PathLike, results: dict,
     new = history_rows(results, run_time)
     frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() else new
     p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        frame.write_parquet(tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    buf = io.BytesIO()
+    frame.write_parquet(buf)
+    write_atomic(p, buf.getvalue())
     return frame
 
 

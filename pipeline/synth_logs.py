@@ -22,13 +22,13 @@ knobs independent of each other:
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 import polars as pl
 
+from .files import write_atomic
 from .models import ProcessModel
 from .record import Record, make_record
 from .synth import response, staircase
@@ -191,7 +191,7 @@ def write_synthetic_logs(folder: str | os.PathLike, n: int, *, seed: int = 0,
     paths = []
     for plan in plans:
         path = out / f"{plan.name}.csv"
-        _write_atomic(path, log_bytes(plan))
+        write_atomic(path, log_bytes(plan))
         paths.append(path)
     return paths
 
@@ -219,14 +219,3 @@ def write_nights(folder: str | os.PathLike, nights: int = 5, drift_per_night: fl
                              noise_rel=noise_rel, **plan_options)
         dirs.append(night_dir)
     return dirs
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -21,7 +21,8 @@ import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from ..baseline import Comparison, Finding, write_atomic
+from ..baseline import Comparison, Finding
+from ..files import write_atomic
 
 SUITE = "pipeline"
 
