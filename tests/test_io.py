@@ -77,3 +77,15 @@ def test_binary_garbage(tmp_path):
     with pytest.raises(UserError) as exc:
         load_record(p, _data())
     assert str(p) in exc.value.message
+
+
+@pytest.mark.parametrize("last,expected", [
+    ("  100.0  9.000  abc\n", "line 51, column 3: 'abc' is not a number"),
+    ("  100.0  9.000\n", "line 51: 2 columns where the lines before have 3"),
+])
+def test_bad_dat_names_the_file_line(tmp_path, last, expected):
+    p = tmp_path / "bad.dat"
+    p.write_text("".join(f"  {2.0 * i:.1f}  9.000  {129 + i:.3f}\n" for i in range(50)) + last)
+    with pytest.raises(UserError) as exc:
+        load_record(p, _data(time="time", columns=["time", "u", "y"]))
+    assert expected in exc.value.message

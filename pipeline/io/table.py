@@ -8,6 +8,7 @@ dataset registry (DaISy: ``time u y``).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -41,8 +42,8 @@ def read_dat_frame(path: Path, columns: list[str]) -> pl.DataFrame:
     except FileNotFoundError:
         raise UserError(f"{path}: file not found") from None
     except ValueError as exc:
-        raise UserError(
-            f"{path}: {_one_line(exc)}; expected whitespace-separated numbers") from None
+        raise UserError(f"{path}: {_loadtxt_problem(exc)}; expected whitespace-separated "
+                        "numbers") from None
     if arr.size == 0:
         raise UserError(f"{path}: the file is empty; expected whitespace-separated numbers")
     if arr.shape[1] != len(columns):
@@ -96,6 +97,19 @@ def first_data_line(path: Path) -> int:
             if line.strip() and not line.lstrip().startswith("#"):
                 return i + 1  # the header is this line
     return 2
+
+
+def _loadtxt_problem(exc: ValueError) -> str:
+    """numpy.loadtxt's message with its 0-based data row turned into the file line."""
+    text = _one_line(exc).rstrip(".")
+    m = re.search(r"could not convert string '(.*)' to \w+ at row (\d+), column (\d+)", text)
+    if m:
+        return f"line {int(m.group(2)) + 1}, column {m.group(3)}: {m.group(1)!r} is not a number"
+    m = re.search(r"the number of columns changed from (\d+) to (\d+) at row (\d+)", text)
+    if m:
+        return (f"line {int(m.group(3))}: {m.group(2)} columns where the lines before have "
+                f"{m.group(1)}")
+    return text
 
 
 def _one_line(exc: Exception) -> str:
