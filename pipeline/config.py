@@ -55,6 +55,7 @@ class SegmentationConfig(_Strict):
     head_samples: int = Field(2, ge=1)
     pulse_fraction: float = Field(0.1, gt=0, lt=1)
     settle_time_constants: float = Field(4.0, gt=0)
+    settle_drift: float = Field(0.01, gt=0, lt=1)
 
 
 class IdentificationConfig(_Strict):

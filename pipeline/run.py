@@ -138,7 +138,8 @@ def segment_options(cfg: RunConfig) -> SegmentOptions:
     return SegmentOptions(min_step=s.min_step, rel_min_step=s.rel_min_step,
                           tail_fraction=s.tail_fraction, head_samples=s.head_samples,
                           pulse_fraction=s.pulse_fraction,
-                          settle_time_constants=s.settle_time_constants)
+                          settle_time_constants=s.settle_time_constants,
+                          settle_drift=s.settle_drift)
 
 
 # -- the analysis ------------------------------------------------------------------------

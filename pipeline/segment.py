@@ -17,7 +17,9 @@ Algorithm (pure function of the record):
    still at the starting level) when the event is at the start of the record. ``y_ss`` is
    the mean over the last ``tail_fraction`` of the window (seed 001 averages the last 11 samples).
 5. A step window shorter than ``settle_time_constants`` times the time the output takes to
-   reach 63 % is flagged ``settled = False`` (DaISy's 200 s windows are ~3 time constants).
+   reach 63 %, or whose output still drifts (the last tenth's mean differs from the tenth
+   before by more than ``settle_drift`` of the change), is flagged ``settled = False``
+   (DaISy's 200 s windows are ~3 time constants and its slow second mode still creeps).
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ class SegmentOptions:
     pulse_fraction: float = 0.1
     stable_samples: int = 3
     settle_time_constants: float = 4.0
+    settle_drift: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -191,8 +194,15 @@ def _level_before(events: list[Event], r: _Raw) -> float:
 
 
 def _step_settled(t, y, y0, y_ss, noise, opt: SegmentOptions) -> bool:
+    """Long enough (``settle_time_constants`` x the 63 % time) and no longer drifting: the
+    mean of the last tenth of the window differs from the tenth before it by at most
+    ``settle_drift`` of the change (or the noise of those means)."""
     dy = y_ss - y0
-    if t.size < 4 or dy == 0:
+    if t.size < 20 or dy == 0:
+        return False
+    m = t.size // 10
+    drift = abs(float(np.mean(y[-m:]) - np.mean(y[-2 * m : -m])))
+    if drift > max(opt.settle_drift * abs(dy), 4 * noise / math.sqrt(m)):
         return False
     h = smooth((y - y0) / dy, noise / abs(dy))
     reach = np.flatnonzero(h >= 0.632)
