@@ -23,6 +23,7 @@ A rich progress bar (records done, failures, elapsed time, ETA) is drawn on stde
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import sys
@@ -178,6 +179,18 @@ def _run_pool(specs: list, cfg, job: Job, n: int, tracker: Tracker) -> list:
                 out[i] = crashed(specs[i], exc)
             tracker.done(out[i])
     return out
+
+
+@contextlib.contextmanager
+def parallel_map(workers: int | None, n_items: int, min_items: int = 8):
+    """A ``map`` for pure, picklable per-record work (e.g. a record's report section):
+    a local process pool's ``map`` when there are workers and enough items, else ``map``."""
+    n = resolve_workers(workers, n_items)
+    if n == 1 or n_items < min_items:
+        yield map
+        return
+    with ProcessPoolExecutor(max_workers=n, mp_context=pool_context()) as pool:
+        yield lambda f, *its: pool.map(f, *its, chunksize=max(1, n_items // (4 * n)))
 
 
 def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracker) -> list:

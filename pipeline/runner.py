@@ -58,9 +58,12 @@ def execute(config: Path, *, out_dir: Path | None = None, workers: int | None = 
         append_history(history, doc, datetime.fromisoformat(created) if created else None)
         extras.history = history_figures(load_history(history))
     target = out_dir or Path(cfg.output or Path("reports") / cfg.name)
-    write_run(target, results, doc, title=cfg.report.title or f"System identification: "
-              f"{cfg.name}", extras=extras, markdown=cfg.report.markdown, html=cfg.report.html,
-              plots_mode=cfg.report.plots)
+    from .batch import parallel_map
+
+    with parallel_map(workers if executor == "local" else 1, len(results)) as mapper:
+        write_run(target, results, doc, title=cfg.report.title or f"System identification: "
+                  f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
+                  html=cfg.report.html, plots_mode=cfg.report.plots, mapper=mapper)
     if junit is not None:  # after the report: --junit may point into the output folder
         from .report.junit import write_junit
 

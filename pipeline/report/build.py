@@ -192,27 +192,49 @@ def summary_rows(results: list[RecordResult]) -> list[dict]:
     return rows
 
 
-def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras | None = None,
-           plots_mode: str = "auto") -> tuple[str, str, dict[str, bytes]]:
-    """``(markdown, html, {png file name: bytes})`` for a run.
-
-    ``plots_mode``: "full" (overview, ranking bars and the overlay views per record),
-    "summary" (one overview per record), "none" (tables only), "auto" (full up to
-    :data:`MAX_FULL_RECORDS` records, else summary).
-    """
-    files: dict[str, bytes] = {}
-
+def _collector(files: dict[str, bytes]):
     def add(stem: str, fig_title: str, png: bytes) -> Figure:
         name = f"plots/{_slug(stem)}.png"
         files[name] = png
         return Figure(fig_title, png, name)
 
+    return add
+
+
+def record_section(res: RecordResult, mode: str) -> tuple[dict, dict[str, bytes]]:
+    """One record's template context and its PNG files (pure; runs in a worker process
+    when the report is rendered in parallel)."""
+    files: dict[str, bytes] = {}
+    dpi = plots.DPI
+    if mode == "summary":
+        plots.DPI = plots.SUMMARY_DPI  # many records: smaller images, a lighter HTML file
+    try:
+        return _record_context(res, mode, _collector(files)), files
+    finally:
+        plots.DPI = dpi
+
+
+def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras | None = None,
+           plots_mode: str = "auto", mapper=map) -> tuple[str, str, dict[str, bytes]]:
+    """``(markdown, html, {png file name: bytes})`` for a run.
+
+    ``plots_mode``: "full" (overview, ranking bars and the overlay views per record),
+    "summary" (one overview per record), "none" (tables only), "auto" (full up to
+    :data:`MAX_FULL_RECORDS` records, else summary). ``mapper`` maps
+    :func:`record_section` over the records (``map``, or a process pool's ``map``).
+    """
+    files: dict[str, bytes] = {}
+    add = _collector(files)
     mode = plots_mode if plots_mode != "auto" else (
         "full" if len(results) <= MAX_FULL_RECORDS else "summary")
     extras = extras or Extras()
     history = [add(f"history_{k}", t, png) for k, (t, png) in enumerate(extras.history)]
+    sections = []
+    for section, section_files in mapper(record_section, results, [mode] * len(results)):
+        sections.append(section)
+        files.update(section_files)
     ctx = {
-        "title": title, "doc": doc, "records": [_record_context(r, mode, add) for r in results],
+        "title": title, "doc": doc, "records": sections,
         "summary": summary_rows(results), "extras": extras, "history": history,
         "n_failed": sum(not r.ok for r in results), "plots_mode": mode,
     }
@@ -226,11 +248,12 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
 
 def write_run(out_dir: Path, results: list[RecordResult], doc: dict, *, title: str,
               extras: Extras | None = None, markdown: bool = True, html: bool = True,
-              plots_mode: str = "auto") -> Path:
+              plots_mode: str = "auto", mapper=map) -> Path:
     """Write results.json, report.md (+ plots/) and report.html atomically into ``out_dir``."""
     out_dir = Path(out_dir)
     out_dir.parent.mkdir(parents=True, exist_ok=True)
-    md, page, files = render(results, doc, title=title, extras=extras, plots_mode=plots_mode)
+    md, page, files = render(results, doc, title=title, extras=extras, plots_mode=plots_mode,
+                             mapper=mapper)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
     try:
         (tmp / "results.json").write_text(json.dumps(doc, indent=1, default=_json_default,

@@ -19,6 +19,7 @@ from ..record import Record  # noqa: E402
 
 ROLE_COLOURS = {"identification": "#4c72b0", "validation": "#55a868", "unused": "#bbbbbb"}
 DPI = 110
+SUMMARY_DPI = 72
 
 
 def _png(fig) -> bytes:
