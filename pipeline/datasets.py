@@ -46,14 +46,21 @@ class Dataset:
     citation: str = ""
 
 
+def _datasets_dir() -> Path:
+    """The project's ``datasets/`` folder: beside the package (a source checkout or an
+    editable install), else in the current directory (a plain ``pip install .``)."""
+    here = PROJECT_ROOT / "datasets"
+    return here if (here / "registry.yaml").is_file() else Path.cwd() / "datasets"
+
+
 def registry_path() -> Path:
     env = os.environ.get("PIPELINE_DATASETS_REGISTRY")
-    return Path(env) if env else PROJECT_ROOT / "datasets" / "registry.yaml"
+    return Path(env) if env else _datasets_dir() / "registry.yaml"
 
 
 def cache_dir() -> Path:
     env = os.environ.get("PIPELINE_DATASETS_CACHE")
-    return Path(env) if env else PROJECT_ROOT / "datasets" / "cache"
+    return Path(env) if env else _datasets_dir() / "cache"
 
 
 def load_registry(path: Path | None = None) -> dict[str, Dataset]:
@@ -61,7 +68,8 @@ def load_registry(path: Path | None = None) -> dict[str, Dataset]:
     try:
         raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
     except FileNotFoundError:
-        raise UserError(f"{path}: dataset registry not found") from None
+        raise UserError(f"{path}: dataset registry not found; run from the project folder "
+                        "or set PIPELINE_DATASETS_REGISTRY") from None
     except yaml.YAMLError as exc:
         raise UserError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
     out = {}
