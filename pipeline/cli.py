@@ -267,8 +267,10 @@ def datasets_list() -> None:
     except UserError as exc:
         raise fail(exc) from None
     tab = Table(title="Datasets")
-    for col in ("name", "title", "format", "signals", "source"):
+    tab.add_column("name", no_wrap=True)
+    for col in ("title", "format", "signals"):
         tab.add_column(col)
+    tab.add_column("source", overflow="fold")
     for ds in reg.values():
         tab.add_row(ds.name, ds.title, ds.format, f"{ds.input} -> {ds.output}", ds.url)
     out.print(tab)
