@@ -108,18 +108,27 @@ def _data_config(file: Path, input: str, output: str, time: str | None,
         sig_in, sig_out = input, output
         if time is None and sample_time is None:
             raise UserError(f"{file}: give --time COLUMN or --sample-time SECONDS")
-    return DataConfig(path=str(file), input=sig_in, output=sig_out, time=time,
-                      sample_time=sample_time, initial_input=initial_input,
-                      columns=None if is_mcap or file.suffix.lower() == ".csv" else None)
+    from pydantic import ValidationError
+
+    try:
+        return DataConfig(path=str(file), input=sig_in, output=sig_out, time=time,
+                          sample_time=sample_time, initial_input=initial_input)
+    except ValidationError as exc:
+        err0 = exc.errors()[0]
+        opt = "--" + str(err0["loc"][0]).replace("_", "-")
+        raise UserError(f"{opt}: {err0['msg']} (got {err0.get('input')!r})") from None
 
 
 def _events_arg(text: str) -> list[int] | str:
     if text == "all":
         return "all"
     try:
-        return [int(x) for x in text.split(",") if x.strip()]
+        events = [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise UserError(f"--events {text!r}: expected 'all' or indices like 0,2") from None
+        events = []
+    if not events or min(events) < 0:
+        raise UserError(f"--events {text!r}: expected 'all' or indices >= 0 like 0,2")
+    return events
 
 
 InputOpt = Annotated[str, typer.Option("--input", help="input column (MCAP: /topic:field)")]
@@ -150,10 +159,10 @@ def identify(
     from .run import RecordSpec, analyse, results_document
 
     try:
-        ids = None if not method or "all" in method else method
-        unknown = [m for m in ids or [] if m not in REGISTRY]
+        unknown = [m for m in method or [] if m != "all" and m not in REGISTRY]
         if unknown:
             raise UserError(f"--method {unknown[0]!r}: unknown; see `pipeline methods`")
+        ids = None if not method or "all" in method else method
         data = _data_config(file, input, output, time, sample_time, initial_input)
         record = load_record(file, data)
         res = analyse(record, events_for_identification=_events_arg(events), methods=ids,

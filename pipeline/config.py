@@ -92,6 +92,8 @@ class RunConfig(_Strict):
     def _known_methods(cls, v):
         if v == "all":
             return v
+        if not v:
+            raise ValueError("expected 'all' or a non-empty list of method ids")
         from .methods import REGISTRY
 
         unknown = [m for m in v if m not in REGISTRY]

@@ -37,6 +37,10 @@ class Record:
         return int(self.t.size)
 
 
+#: A time step this many times the median interval is a broken log, not a sample.
+MAX_GAP_FACTOR = 1000.0
+
+
 def infer_sample_time(t: np.ndarray, rel_tol: float = 1e-6) -> float | None:
     """The constant sample time of ``t``, or ``None`` when the grid is irregular."""
     if t.size < 2:
@@ -68,12 +72,21 @@ def make_record(
                 f"{source}: column '{label}' has a missing or non-numeric value at data row "
                 f"{int(bad[0]) + 1}; expected a finite number"
             )
+    if initial_input is not None and not np.isfinite(initial_input):
+        raise UserError(f"{source}: initial_input is {initial_input}; expected a number")
     dt = np.diff(t)
     if np.any(dt <= 0):
         k = int(np.flatnonzero(dt <= 0)[0])
         raise UserError(
             f"{source}: time is not strictly increasing at data row {k + 2} "
             f"({t[k]} then {t[k + 1]}); expected increasing time stamps"
+        )
+    med = float(np.median(dt))
+    if np.max(dt) > MAX_GAP_FACTOR * med:
+        k = int(np.argmax(dt))
+        raise UserError(
+            f"{source}: time jumps by {dt[k]:.6g} s at data row {k + 2} while the median "
+            f"interval is {med:.6g} s; split the log there or remove the gap"
         )
     return Record(
         t=t, u=u, y=y, name=name, source=source, units=dict(units or {}),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import glob
 import math
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -22,6 +23,9 @@ from .methods import REGISTRY, identify
 from .record import Record
 from .segment import SegmentOptions, segment
 from .validate import score
+
+#: An event window with fewer samples after t0 gives no model (never a silent bad one).
+MIN_WINDOW_SAMPLES = 10
 
 
 @dataclass(frozen=True)
@@ -102,7 +106,8 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
         if p.is_dir():
             found = sorted(f for f in p.iterdir() if f.suffix.lower() in FORMATS)
         elif any(ch in pat for ch in "*?["):
-            found = sorted(Path(f) for f in glob.glob(str(p), recursive=True))
+            found = sorted(Path(f) for f in glob.glob(str(p), recursive=True)
+                           if Path(f).is_file() and Path(f).suffix.lower() in FORMATS)
         else:
             found = [p]
         if not found:
@@ -115,9 +120,22 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
 
 
 def _unique_names(files: list[Path]) -> list[str]:
+    """File stems, or paths relative to the files' common folder where stems repeat, with
+    a counter where even those repeat (the same file listed twice)."""
     stems = [f.stem for f in files]
-    return [s if stems.count(s) == 1 else f"{f.parent.name}/{s}" for s, f in
-            zip(stems, files, strict=True)]
+    if len(set(stems)) == len(stems):
+        return stems
+    root = Path(os.path.commonpath([str(f.resolve().parent) for f in files]))
+    rel = [f.resolve().relative_to(root).as_posix() for f in files]
+    bare = [r.rsplit(".", 1)[0] for r in rel]
+    distinct = {b: {r for r, b2 in zip(rel, bare, strict=True) if b2 == b} for b in bare}
+    names = [b if len(distinct[b]) == 1 else r for r, b in zip(rel, bare, strict=True)]
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:
+        seen[n] = seen.get(n, 0) + 1
+        out.append(n if seen[n] == 1 else f"{n}#{seen[n]}")
+    return out
 
 
 def effective_data(cfg: RunConfig, spec: RecordSpec) -> DataConfig:
@@ -155,20 +173,29 @@ def analyse(record: Record, *, events_for_identification: list[int] | str = (0,)
                             f"found in the input {record.input_name!r}")
     ident = (list(range(len(events))) if events_for_identification == "all"
              else sorted(set(events_for_identification)))
-    missing = [i for i in ident if i >= len(events)]
+    missing = [i for i in ident if not 0 <= i < len(events)]
+    if not ident:
+        return RecordResult(spec, record, events, error=(
+            f"{record.source}: no identification event was chosen"))
     if missing:
         return RecordResult(spec, record, events, error=(
             f"{record.source}: identification event {missing[0]} does not exist; the record "
             f"has {len(events)} event(s) (0..{len(events) - 1})"))
     validation = [e.index for e in events if e.index not in ident]
     roles = {e.index: ("identification" if e.index in ident else "validation") for e in events}
-    method_ids = methods or list(REGISTRY)
+    method_ids = list(REGISTRY) if methods is None else list(methods)
     fits: list[Fit] = []
     for i in ident:
         ev = events[i]
         data = EventData.from_event(record, ev)
+        short = ev.i_end - ev.i_start < MIN_WINDOW_SAMPLES
         for mid in method_ids:
-            if REGISTRY[mid].event != ev.kind:
+            if REGISTRY[mid].event != ev.kind and methods is None:
+                continue  # all methods: only those for this kind of event are listed
+            if short:
+                fits.append(Fit(mid, i, "not_applicable", f"window too short: "
+                                f"{ev.i_end - ev.i_start} samples after t0, at least "
+                                f"{MIN_WINDOW_SAMPLES} are needed"))
                 continue
             fit = identify(data, mid)
             if fit.ok:

@@ -5,6 +5,7 @@ options. Returns an :class:`Outcome` (exit code and messages); the CLI only prin
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 
 from .config import load_config
@@ -49,14 +50,17 @@ def execute(config: Path, *, out_dir: Path | None = None, workers: int | None = 
         extras.new = [str(f) for f in comparison.new]
         regressions = len(comparison.regressions)
         messages.append(f"{regressions} regression(s) against {baseline}")
+    run_time = datetime.fromisoformat(created) if created else None
     if history is not None:
-        from datetime import datetime
+        import polars as pl
 
-        from .history import append_history, load_history
+        from .history import history_rows, load_history
         from .report.history_plots import history_figures
 
-        append_history(history, doc, datetime.fromisoformat(created) if created else None)
-        extras.history = history_figures(load_history(history))
+        rows = history_rows(doc, run_time)  # the file is appended after the report
+        past = load_history(history) if Path(history).exists() else None
+        frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
+        extras.history = history_figures(frame)
     target = out_dir or Path(cfg.output or Path("reports") / cfg.name)
     from .batch import parallel_map
 
@@ -64,6 +68,10 @@ def execute(config: Path, *, out_dir: Path | None = None, workers: int | None = 
         write_run(target, results, doc, title=cfg.report.title or f"System identification: "
                   f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
                   html=cfg.report.html, plots_mode=cfg.report.plots, mapper=mapper)
+    if history is not None:  # after the report too, for the same reason
+        from .history import append_history
+
+        append_history(history, doc, run_time)
     if junit is not None:  # after the report: --junit may point into the output folder
         from .report.junit import write_junit
 

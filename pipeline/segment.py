@@ -62,7 +62,8 @@ def input_threshold(u: np.ndarray, initial_input: float | None, opt: SegmentOpti
     """``(threshold, sigma_u)`` for an input change to count as an event."""
     d = np.diff(u)
     sigma_u = float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(2)) if d.size else 0
-    lo, hi = float(u.min()), float(u.max())
+    # 0.5 / 99.5 percentiles: one huge spike must not raise the bar above the real steps
+    lo, hi = (float(v) for v in np.percentile(u, [0.5, 99.5]))
     if initial_input is not None:
         lo, hi = min(lo, initial_input), max(hi, initial_input)
     rel = opt.rel_min_step * (hi - lo)
@@ -77,7 +78,7 @@ def segment(record: Record, options: SegmentOptions | None = None) -> list[Event
     n = u.size
     thr, sigma_u = input_threshold(u, record.initial_input, opt)
     level = (record.initial_input if record.initial_input is not None
-             else float(np.median(u[: min(5, n)])))
+             else _starting_level(u, thr))
     raws: list[_Raw] = []
     k = 0
     while k < n:
@@ -92,11 +93,19 @@ def segment(record: Record, options: SegmentOptions | None = None) -> list[Event
                 raws.append(_Raw("impulse", _walk_back(u, k, level, sigma_u), back, level))
                 k = back
                 continue
-        j = _plateau_start(u, k, thr, opt.stable_samples)
+        j = _plateau_start(u, k, thr, opt.stable_samples, sigma_u)
         raws.append(_Raw("step", _walk_back(u, k, level, sigma_u), j, level))
         level = float(np.median(u[j : j + opt.stable_samples]))
         k = j
     return _events(record, raws, opt, thr)
+
+
+def _starting_level(u: np.ndarray, thr: float, m: int = 5) -> float:
+    """Median of the first samples before the input first moves by more than ``thr``
+    (a step at the second sample must not become the starting level)."""
+    moved = np.flatnonzero(np.abs(u - u[0]) > thr)
+    first = int(moved[0]) if moved.size else u.size
+    return float(np.median(u[: max(1, min(m, first))]))
 
 
 def _first_stable(u, start, level, thr, m) -> int | None:
@@ -115,12 +124,20 @@ def _next_departure(u, start, level, thr) -> int:
     return start + int(off[0]) if off.size else u.size
 
 
-def _plateau_start(u, k, thr, m) -> int:
-    """First index j >= k where ``m`` consecutive samples agree within thr/2 (end of a ramp)."""
+def _plateau_start(u, k, thr, m, sigma_u: float = 0.0, m_flat: int = 10) -> int:
+    """First index j >= k where the input has stopped moving: the next ``m`` samples agree
+    within thr/2, and the means of the two halves of the next ``2 m_flat`` samples differ
+    by no more than their noise (3 sigma) or thr/20: a slow ramp changes a little per
+    sample, even under noise, but keeps moving."""
     n = u.size
+    flat = max(3.0 * sigma_u * np.sqrt(2.0 / m_flat), thr / 20)
     for j in range(k, n):
         w = u[j : j + m]
-        if np.all(np.abs(w - np.median(w)) <= thr / 2):
+        if not np.all(np.abs(w - np.median(w)) <= thr / 2):
+            continue
+        v = u[j : j + 2 * m_flat]
+        half = v.size // 2
+        if half < m or abs(float(np.mean(v[:half]) - np.mean(v[half:]))) <= flat:
             return j
     return k
 

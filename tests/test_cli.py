@@ -170,3 +170,71 @@ def test_thermal_flagship(tmp_path):
     assert 50 <= fo["params"]["T"] <= 70
     assert 0 < fo["metrics"]["mse_validation"] < 80
     assert np.isfinite(fo["metrics"]["fit_percent"])
+
+
+def test_out_keeps_files_it_did_not_write(tmp_path):
+    p = _csv(tmp_path)
+    out = tmp_path / "userdir"
+    out.mkdir()
+    (out / "notes.txt").write_text("important")
+    args = ["identify", str(p), "--input", "u", "--output", "y", "--time", "time",
+            "--method", "first_order", "--out", str(out)]
+    assert runner.invoke(app, args).exit_code == 0
+    assert runner.invoke(app, args).exit_code == 0  # replaces its own outputs
+    assert (out / "notes.txt").read_text() == "important"
+    assert (out / "report.html").is_file()
+    assert not [f for f in tmp_path.iterdir() if f.name.startswith(".userdir")]
+
+
+def test_out_dot(tmp_path, monkeypatch):
+    p = _csv(tmp_path)
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    r = runner.invoke(app, ["identify", str(p), "--input", "u", "--output", "y", "--time",
+                            "time", "--method", "first_order", "--out", "."])
+    assert r.exit_code == 0, r.output
+    assert (work / "results.json").is_file()
+
+
+@pytest.mark.parametrize("extra,needle", [
+    (["--sample-time", "0"], "--sample-time"),
+    (["--sample-time", "nan"], "--sample-time"),
+    (["--time", "time", "--events", "-1"], "--events"),
+    (["--time", "time", "--events", ","], "--events"),
+    (["--time", "time", "--initial-input", "nan"], "initial_input"),
+    (["--time", "time", "--method", "all", "--method", "foo"], "'foo'"),
+])
+def test_bad_options_are_one_line(tmp_path, extra, needle):
+    p = _csv(tmp_path)
+    _one_line_error(runner.invoke(app, ["identify", str(p), "--input", "u", "--output", "y",
+                                        *extra]), needle)
+
+
+def test_history_inside_the_output_folder_survives(tmp_path):
+    p = _csv(tmp_path)
+    c = _config(tmp_path, f"name: t\ndata:\n  path: {p.name}\n  input: u\n  output: y\n"
+                "  time: time\nmethods: [first_order]\n")
+    out = tmp_path / "out"
+    for _ in range(2):
+        r = runner.invoke(app, ["run", str(c), "--out", str(out), "--workers", "1",
+                                "--history", str(out / "history.parquet")])
+        assert r.exit_code == 0, r.output
+    import polars as pl
+
+    assert pl.read_parquet(out / "history.parquet")["time"].n_unique() == 2
+
+
+def test_colliding_record_names_are_made_unique(tmp_path):
+    for d in ("p1/x", "p2/x"):
+        (tmp_path / d).mkdir(parents=True)
+        _csv(tmp_path / d, name="r.csv")
+    c = _config(tmp_path, "name: t\ndata:\n  paths: [p1/x/r.csv, p2/x/r.csv, p1/x/r.csv]\n"
+                "  input: u\n  output: y\n  time: time\nmethods: [first_order]\n")
+    out = tmp_path / "out"
+    r = runner.invoke(app, ["run", str(c), "--out", str(out), "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    names = [rec["name"] for rec in json.loads((out / "results.json").read_text())["records"]]
+    assert len(set(names)) == 3, names
+    assert names == ["p1/x/r", "p2/x/r", "p1/x/r#2"]
+    assert len(list((out / "plots").glob("*e0_ranking.png"))) == 3  # nothing overwritten

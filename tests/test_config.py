@@ -47,3 +47,8 @@ def test_flagship_config_is_valid():
     cfg = load_config(Path(__file__).parent.parent / "configs" / "thermal.yaml")
     assert cfg.data.dataset == "daisy-heating" and cfg.data.initial_input == 6.0
     assert cfg.identification.events == [0]
+
+
+def test_empty_method_list_is_rejected():
+    with pytest.raises(UserError, match="non-empty list"):
+        config_from_dict({"data": {"dataset": "d"}, "methods": []}, source="c.yaml")

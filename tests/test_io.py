@@ -89,3 +89,10 @@ def test_bad_dat_names_the_file_line(tmp_path, last, expected):
     with pytest.raises(UserError) as exc:
         load_record(p, _data(time="time", columns=["time", "u", "y"]))
     assert expected in exc.value.message
+
+
+def test_huge_time_gap_is_a_user_error(tmp_path):
+    p = tmp_path / "gap.csv"
+    p.write_text("time,u,y\n" + "".join(f"{i * 0.5},1,2\n" for i in range(20)) + "1e9,1,2\n")
+    with pytest.raises(UserError, match="time jumps by"):
+        load_record(p, _data())

@@ -109,3 +109,32 @@ def test_daisy_flags_the_windows_still_creeping():
     d = np.loadtxt(fetch("daisy-heating"))
     evs = segment(_rec(d[:, 0], d[:, 1], d[:, 2], initial_input=6.0))
     assert [e.settled for e in evs] == [True, False, False, False, False, False]
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.01])
+def test_slow_ramp_is_one_step(noise):
+    t = np.arange(0, 400, 0.5)
+    u = np.interp(t, [0, 100, 200, 400], [1, 1, 3, 3])
+    u = u + np.random.default_rng(3).normal(0, noise, t.size)
+    y = response(FO, t, u, 1.0, 0.0)
+    evs = segment(_rec(t, u, y))
+    assert [e.kind for e in evs] == ["step"]
+    assert evs[0].t0 == pytest.approx(100.0, abs=3.0)
+    assert evs[0].u_ss == pytest.approx(3.0, abs=0.01)
+
+
+def test_one_huge_spike_does_not_hide_a_step():
+    t = np.arange(0, 400, 0.5)
+    u = staircase(t, 1.0, [(200.0, 3.0)])
+    u[100] = 100.0
+    y = response(FO, t, u, 1.0, 0.0)
+    evs = segment(_rec(t, u, y))
+    assert [(e.kind, e.t0) for e in evs] == [("impulse", 50.0), ("step", 200.0)]
+
+
+def test_step_at_the_second_sample():
+    t = np.arange(0, 200, 0.5)
+    u = staircase(t, 1.0, [(0.5, 3.0)])
+    y = response(FO, t, u, 1.0, 0.0)
+    (ev,) = segment(_rec(t, u, y))
+    assert (ev.kind, ev.t0, ev.u0, ev.u_ss) == ("step", 0.5, 1.0, 3.0)

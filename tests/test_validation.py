@@ -43,3 +43,29 @@ def test_missing_identification_event_is_a_record_error():
     rec = step_record(truth, u0=0.0, changes=[(10, 1.0)], t_end=60, dt=0.1, y0=0.0)
     res = analyse(rec, events_for_identification=[3])
     assert res.error and "event 3 does not exist" in res.error
+
+
+def test_step_near_the_end_gives_no_silent_model():
+    truth = ProcessModel("first_order", {"K": 2.0, "T": 10.0})
+    rec = step_record(truth, u0=0.0, changes=[(10, 1.0), (99.0, 2.0)], t_end=99.5, dt=0.5,
+                      y0=0.0)
+    res = analyse(rec, events_for_identification=[1])
+    assert res.fits and all(f.status == "not_applicable" for f in res.fits)
+    assert "window too short" in res.fits[0].reason
+
+
+def test_a_method_bug_fails_that_fit_only(monkeypatch):
+    from dataclasses import replace as dc_replace
+
+    from pipeline.methods import REGISTRY
+
+    def broken(ev):
+        raise KeyError("bug")
+
+    monkeypatch.setitem(REGISTRY, "first_order",
+                        dc_replace(REGISTRY["first_order"], func=broken))
+    truth = ProcessModel("first_order", {"K": 2.0, "T": 3.0})
+    rec = step_record(truth, u0=0.0, changes=[(10, 1.0)], t_end=60, dt=0.1, y0=0.0)
+    res = analyse(rec)
+    status = {f.method: f.status for f in res.fits}
+    assert status["first_order"] == "failed" and status["viteckova1"] == "ok"

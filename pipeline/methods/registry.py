@@ -62,8 +62,8 @@ def identify(ev: EventData, method: str) -> Fit:
         res = info.func(ev)
     except NotApplicable as exc:
         return Fit(method, ev.index, "not_applicable", exc.reason)
-    except (ArithmeticError, ValueError, IndexError, FloatingPointError) as exc:
-        return Fit(method, ev.index, "failed", f"{type(exc).__name__}: {exc}")
+    except Exception as exc:  # a bug in one method must not lose the record's other fits
+        return Fit(method, ev.index, "failed", f"internal error: {type(exc).__name__}: {exc}")
     bad = {k: v for k, v in res.model.params.items() if not _finite(v)}
     if bad:
         return Fit(method, ev.index, "failed", f"non-finite parameters {bad}",

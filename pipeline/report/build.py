@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from jinja2 import Environment, PackageLoader, select_autoescape
 
+from ..errors import UserError
 from ..methods import REGISTRY
 from ..run import RecordResult
 from ..validate import event_simulation, validation_simulation
@@ -80,9 +81,23 @@ def _marks(diag: dict) -> list[tuple[float, float, str]]:
     return out
 
 
-def _record_context(res: RecordResult, mode: str, add) -> dict:
+def unique_anchors(names: list[str]) -> list[str]:
+    """HTML anchors and plot-file stems, unique even where two names slug alike."""
+    out, used = [], set()
+    for name in names:
+        base = a = _slug(name)
+        k = 1
+        while a in used:
+            k += 1
+            a = f"{base}-{k}"
+        used.add(a)
+        out.append(a)
+    return out
+
+
+def _record_context(res: RecordResult, mode: str, add, anchor: str) -> dict:
     rec = res.record
-    ctx = {"name": res.spec.name, "anchor": _slug(res.spec.name), "ok": res.ok,
+    ctx = {"name": res.spec.name, "anchor": anchor, "ok": res.ok,
            "error": res.error, "source": rec.source if rec else res.spec.path,
            "notes": list(rec.notes) if rec else [], "events": [], "ident": []}
     if rec is None:
@@ -169,9 +184,9 @@ def _validation_overlay(res: RecordResult, fits, validation, label) -> bytes:
                          "operating point", events=res.events, roles=res.roles)
 
 
-def summary_rows(results: list[RecordResult]) -> list[dict]:
+def summary_rows(results: list[RecordResult], anchors: list[str]) -> list[dict]:
     rows = []
-    for r in results:
+    for r, anchor in zip(results, anchors, strict=True):
         best = r.best
         p = best.model.params if best else {}
         if "zeta" in p:
@@ -183,7 +198,7 @@ def summary_rows(results: list[RecordResult]) -> list[dict]:
         else:
             dyn = "-"
         rows.append({
-            "name": r.spec.name, "anchor": _slug(r.spec.name),
+            "name": r.spec.name, "anchor": anchor,
             "status": "ok" if r.ok else "failed", "reason": r.error or "",
             "events": len(r.events), "best": best.method if best else "-",
             "K": fmt(p.get("K")), "dyn": dyn,
@@ -201,7 +216,7 @@ def _collector(files: dict[str, bytes]):
     return add
 
 
-def record_section(res: RecordResult, mode: str) -> tuple[dict, dict[str, bytes]]:
+def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dict[str, bytes]]:
     """One record's template context and its PNG files (pure; runs in a worker process
     when the report is rendered in parallel)."""
     files: dict[str, bytes] = {}
@@ -209,7 +224,7 @@ def record_section(res: RecordResult, mode: str) -> tuple[dict, dict[str, bytes]
     if mode == "summary":
         plots.DPI = plots.SUMMARY_DPI  # many records: smaller images, a lighter HTML file
     try:
-        return _record_context(res, mode, _collector(files)), files
+        return _record_context(res, mode, _collector(files), anchor), files
     finally:
         plots.DPI = dpi
 
@@ -229,13 +244,15 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
         "full" if len(results) <= MAX_FULL_RECORDS else "summary")
     extras = extras or Extras()
     history = [add(f"history_{k}", t, png) for k, (t, png) in enumerate(extras.history)]
+    anchors = unique_anchors([r.spec.name for r in results])
     sections = []
-    for section, section_files in mapper(record_section, results, [mode] * len(results)):
+    for section, section_files in mapper(record_section, results, [mode] * len(results),
+                                         anchors):
         sections.append(section)
         files.update(section_files)
     ctx = {
         "title": title, "doc": doc, "records": sections,
-        "summary": summary_rows(results), "extras": extras, "history": history,
+        "summary": summary_rows(results, anchors), "extras": extras, "history": history,
         "n_failed": sum(not r.ok for r in results), "plots_mode": mode,
     }
     env = Environment(loader=PackageLoader("pipeline", "report/templates"),
@@ -246,12 +263,24 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
     return md, html, files
 
 
+#: What a run writes into its output folder; nothing else there is touched.
+OUTPUTS = ("results.json", "report.md", "report.html", "plots")
+
+
 def write_run(out_dir: Path, results: list[RecordResult], doc: dict, *, title: str,
               extras: Extras | None = None, markdown: bool = True, html: bool = True,
               plots_mode: str = "auto", mapper=map) -> Path:
-    """Write results.json, report.md (+ plots/) and report.html atomically into ``out_dir``."""
-    out_dir = Path(out_dir)
+    """Write results.json, report.md (+ plots/) and report.html into ``out_dir``.
+
+    Everything is rendered into a temporary sibling folder first; a new ``out_dir`` is
+    that folder renamed in one step. An existing ``out_dir`` keeps whatever else it holds
+    (a history file, the user's notes): only :data:`OUTPUTS` are replaced, each by a
+    rename, the report files last.
+    """
+    out_dir = Path(out_dir).resolve()
     out_dir.parent.mkdir(parents=True, exist_ok=True)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserError(f"{out_dir}: exists and is not a folder; expected an output folder")
     md, page, files = render(results, doc, title=title, extras=extras, plots_mode=plots_mode,
                              mapper=mapper)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
@@ -265,21 +294,26 @@ def write_run(out_dir: Path, results: list[RecordResult], doc: dict, *, title: s
             (tmp / "report.md").write_text(md, encoding="utf-8")
         if html:
             (tmp / "report.html").write_text(page, encoding="utf-8")
-        _swap(tmp, out_dir)
-    except BaseException:
+        if out_dir.exists():
+            _replace_outputs(tmp, out_dir)
+        else:
+            os.replace(tmp, out_dir)
+    except OSError as exc:
+        raise UserError(f"{out_dir}: cannot write the report ({exc})") from None
+    finally:
         shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out_dir
 
 
-def _swap(tmp: Path, out_dir: Path) -> None:
-    if out_dir.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old-", dir=out_dir.parent))
-        os.replace(out_dir, old / "x")
-        os.replace(tmp, out_dir)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, out_dir)
+def _replace_outputs(tmp: Path, out_dir: Path) -> None:
+    """Move this run's outputs into an existing folder; stale ones of ours are removed."""
+    old = Path(tempfile.mkdtemp(prefix=".old-", dir=tmp))
+    for name in OUTPUTS:  # results.json first, the reports last
+        src, dst = tmp / name, out_dir / name
+        if dst.exists():
+            os.replace(dst, old / name)
+        if src.exists():
+            os.replace(src, dst)
 
 
 def _json_default(o):
