@@ -10,7 +10,9 @@ Algorithm (pure function of the record):
 3. If the input comes back to the level and stays there, and it was away for less than
    ``pulse_fraction`` of the time to the next event, it was a pulse: an impulse event whose
    strength is the area ``A = sum (u - u0) dt`` (zero-order hold). A one-sample spike is a
-   pulse too. Otherwise it is a step to a new level (trimmed mean of its plateau).
+   pulse too, if it clears twice the threshold (a one- or two-sample blip just over the
+   bar is noise on top of a small level shift). Otherwise it is a step to a new level
+   (trimmed mean of its plateau).
 4. Each event's window runs to the next event or the end of the record. ``y0`` is the mean
    of the settled output before ``t0``: the whole baseline before the first event, the
    tail of the previous window before a later one, or the first ``head_samples`` (those
@@ -90,6 +92,9 @@ def segment(record: Record, options: SegmentOptions | None = None) -> list[Event
             nxt = _next_departure(u, back, level, thr)
             t_next = t[nxt] if nxt < n else t[-1] + (t[-1] - t[-2])
             if t[back] - t[k] < opt.pulse_fraction * (t_next - t[k]):
+                if back - k <= 2 and np.max(np.abs(u[k:back] - level)) < 2 * thr:
+                    k = back  # a one- or two-sample blip barely over the bar: noise
+                    continue
                 raws.append(_Raw("impulse", _walk_back(u, k, level, sigma_u), back, level))
                 k = back
                 continue

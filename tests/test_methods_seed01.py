@@ -342,7 +342,7 @@ NOT_APPLICABLE = [
      "36.8"),
     ("first_order_impulse", flat("impulse"), "no measurable"),
     ("second_order_impulse", flat("impulse"), "no measurable"),
-    ("first_order_impulse", step(FO, **FO_UP), "needs a impulse event"),
+    ("first_order_impulse", step(FO, **FO_UP), "needs an impulse event"),
     ("first_order_two_point",
      impulse(FO_LAG, u0=0, t_on=1, width=0.2, height=3, y0=0, dt=0.01, t_end=41),
      "needs a step event"),

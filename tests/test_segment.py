@@ -138,3 +138,15 @@ def test_step_at_the_second_sample():
     y = response(FO, t, u, 1.0, 0.0)
     (ev,) = segment(_rec(t, u, y))
     assert (ev.kind, ev.t0, ev.u0, ev.u_ss) == ("step", 0.5, 1.0, 3.0)
+
+
+def test_noise_over_a_small_level_shift_is_not_impulses():
+    """A sub-threshold input shift (0.05) under noise (0.02) must not spawn one-sample
+    'impulses' that would cut the windows of the real steps around it."""
+    t = np.arange(0, 400, 0.5)
+    u = staircase(t, 1.0, [(100, 1.3), (200, 1.35), (300, 3.0)])
+    u = u + np.random.default_rng(0).normal(0, 0.02, t.size)
+    y = response(FO, t, u, 1.0, 0.0)
+    evs = segment(_rec(t, u, y))
+    assert [e.kind for e in evs] == ["step", "step"]
+    assert evs[1].t0 == pytest.approx(300.0, abs=1.0)

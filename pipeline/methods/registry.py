@@ -57,7 +57,7 @@ def identify(ev: EventData, method: str) -> Fit:
     info = REGISTRY[method]
     if ev.kind != info.event:
         return Fit(method, ev.index, "not_applicable",
-                   f"needs a {info.event} event, this is a {ev.kind} event")
+                   f"needs {_article(info.event)} event, this is {_article(ev.kind)} event")
     try:
         res = info.func(ev)
     except NotApplicable as exc:
@@ -69,6 +69,10 @@ def identify(ev: EventData, method: str) -> Fit:
         return Fit(method, ev.index, "failed", f"non-finite parameters {bad}",
                    diagnostics=res.diagnostics)
     return Fit(method, ev.index, "ok", None, res.model, {}, res.diagnostics)
+
+
+def _article(kind: str) -> str:
+    return f"an {kind}" if kind[0] in "aeiou" else f"a {kind}"
 
 
 def _finite(v) -> bool:
