@@ -102,7 +102,7 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
     base = Path(cfg.base_dir)
     files: list[Path] = []
     for pat in patterns:
-        p = Path(pat) if Path(pat).is_absolute() else base / pat
+        p = Path(os.path.normpath(pat if Path(pat).is_absolute() else base / pat))
         if p.is_dir():
             found = sorted(f for f in p.iterdir() if f.suffix.lower() in FORMATS)
         elif any(ch in pat for ch in "*?["):
