@@ -109,10 +109,6 @@ class EventData:
     def dy(self) -> float:
         return self.y_ss - self.y0
 
-    @property
-    def dt(self) -> float:
-        return float(np.median(np.diff(self.t))) if self.t.size > 1 else 0.0
-
     def after(self) -> tuple[np.ndarray, np.ndarray]:
         """Time since ``t0`` and output deviation ``y - y0`` from ``t0`` on."""
         i = self.i0

@@ -253,7 +253,7 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
     ctx = {
         "title": title, "doc": doc, "records": sections,
         "summary": summary_rows(results, anchors), "extras": extras, "history": history,
-        "n_failed": sum(not r.ok for r in results), "plots_mode": mode,
+        "n_failed": sum(not r.ok for r in results),
     }
     env = Environment(loader=PackageLoader("pipeline", "report/templates"),
                       autoescape=select_autoescape(["html.j2"]), trim_blocks=True,
