@@ -6,13 +6,13 @@ of the record; ``i_base`` is the first sample of the settled stretch before ``t0
 mean is ``y0``.
 
 An :class:`EventData` is the self-contained slice a method works on: the arrays from
-``i_base`` to ``i_end`` and the operating-point values. It can be built from plain numpy
-arrays (:meth:`EventData.from_arrays`), so every method runs without the CLI.
+``i_base`` to ``i_end`` and the operating-point values. :func:`pipeline.segment.event_data`
+builds one from plain numpy arrays, so every method runs without the CLI.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -79,21 +79,6 @@ class EventData:
             duration=event.duration, noise=event.noise, settled=event.settled,
             index=event.index,
         )
-
-    @classmethod
-    def from_arrays(cls, t, u, y, *, initial_input: float | None = None, event: int = 0,
-                    **override) -> EventData:
-        """Segment plain arrays and return event number ``event``; keywords override
-        any field (e.g. ``y0=...``, ``kind="impulse"``, ``area=...``)."""
-        from .record import make_record
-        from .segment import segment
-
-        rec = make_record(t, u, y, name="arrays", source="<arrays>",
-                          initial_input=initial_input)
-        events = segment(rec)
-        if not events:
-            raise ValueError("no step or impulse event found in the arrays")
-        return replace(cls.from_event(rec, events[event]), **override)
 
     # -- views a method needs -----------------------------------------------------------
     @property

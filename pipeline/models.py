@@ -1,15 +1,20 @@
-"""``ProcessModel``: a low-order process model, its transfer function and step response.
+"""The model vocabulary, written down once: the parameter table, the structure table and
+:class:`ProcessModel` (DESIGN.md "Vocabulary").
 
-Structures (parameter names as in DESIGN.md):
+Every other module reads these tables: simulation (the step response), the reports
+(labels, units, number formats, the overlay view), the regression gate (tolerance class
+and scale of each parameter), the history (one column per parameter) and the results
+schema. Adding a structure is one :class:`Structure` entry plus its response function;
+adding a parameter is one :class:`Parameter` entry.
 
-==============  ===========================================  ==================
-structure       transfer function                            params
-==============  ===========================================  ==================
-first_order     K e^{-delay s} / (T s + 1)                   K, T, delay
-second_order    K wn^2 e^{-delay s} / (s^2 + 2 zeta wn s + wn^2)  K, zeta, wn, delay
-two_lags        K e^{-delay s} / ((T1 s + 1)(T2 s + 1))      K, T1, T2, delay
-n_lags          K e^{-delay s} / (T s + 1)^n  (n may be non-integer, e.g. 2.5)  K, T, n, delay
-==============  ===========================================  ==================
+==============  =================================================  ======================
+structure       transfer function                                  params
+==============  =================================================  ======================
+first_order     K e^{-delay s} / (T s + 1)                         K, T, delay
+second_order    K wn^2 e^{-delay s} / (s^2 + 2 zeta wn s + wn^2)   K, zeta, wn, delay
+two_lags        K e^{-delay s} / ((T1 s + 1)(T2 s + 1))            K, T1, T2, delay
+n_lags          K e^{-delay s} / (T s + 1)^n  (n may be non-integer)  K, T, n, delay
+==============  =================================================  ======================
 
 The unit step responses are closed forms (seed 000 section I; seed 001 "Underdamped 2nd
 order step response"; the equal-lag response is the regularised lower incomplete gamma
@@ -19,24 +24,221 @@ function, exact also for non-integer n).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.special import gammainc
 
-STRUCTURES: dict[str, tuple[str, ...]] = {
-    "first_order": ("K", "T", "delay"),
-    "second_order": ("K", "zeta", "wn", "delay"),
-    "two_lags": ("K", "T1", "T2", "delay"),
-    "n_lags": ("K", "T", "n", "delay"),
-}
+# =====================================================================================
+# Parameters
+# =====================================================================================
 
-ORDER_CLASS = {"first_order": "first", "second_order": "second", "two_lags": "second"}
+#: Unit kinds of a parameter (how its unit follows from the record's units).
+UNIT_KINDS = ("gain", "time", "dimensionless", "frequency")
 
 
 @dataclass(frozen=True)
+class Parameter:
+    """One model parameter: its meaning, unit kind, regression tolerance and display.
+
+    ``tolerance`` is the baseline tolerance class: "gain" parameters get the gate's
+    ``param_tol``, "dynamics" parameters a multiple of it (a step pins the gain to a ratio
+    of two averaged plateaus, the dynamics to a few samples of the transient).
+    ``scale`` says what a change is measured against in the gate: "value" (the baseline
+    value itself, at least ``floor``), "time_scale" (the model's time scale: a dead time
+    of 0 that becomes 0.05 s on a 5 s lag is a 1 % change) or "dominant_lag" (the larger
+    of T1 and T2: a minor lag is poorly determined by a step).
+    """
+
+    name: str
+    kind: str
+    label: str
+    tolerance: str = "dynamics"
+    scale: str = "value"
+    floor: float = 0.0
+    digits: int = 4
+
+    def unit(self, units: Mapping[str, str] | None = None, *, integrating: bool = False
+             ) -> str:
+        """The unit of this parameter for a record with ``units`` (keys time, input,
+        output); the gain of an integrating structure is per time unit."""
+        units = units or {}
+        time = units.get("time") or "s"
+        if self.kind == "gain":
+            out, inp = units.get("output"), units.get("input")
+            base = f"{out or '-'}/{inp or '-'}" if (out or inp) else ""
+            if integrating:
+                return f"{base}/{time}" if base else f"1/{time}"
+            return base
+        if self.kind == "time":
+            return time
+        if self.kind == "frequency":
+            return f"rad/{time}"
+        return ""
+
+    def format(self, value: float, digits: int | None = None) -> str:
+        """``value`` with this parameter's significant digits (integers stay integers)."""
+        v = float(value)
+        if self.name == "n" and v.is_integer():
+            return str(int(v))
+        return f"{v:.{digits or self.digits}g}"
+
+
+PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
+    Parameter("K", "gain", "gain K", tolerance="gain"),
+    Parameter("T", "time", "time constant T"),
+    Parameter("T1", "time", "time constant T1", scale="dominant_lag"),
+    Parameter("T2", "time", "time constant T2", scale="dominant_lag"),
+    Parameter("n", "dimensionless", "order n"),
+    Parameter("zeta", "dimensionless", "damping zeta", floor=0.1),
+    Parameter("wn", "frequency", "natural frequency wn"),
+    Parameter("delay", "time", "dead time", scale="time_scale"),
+)}
+
+
+# =====================================================================================
+# Step responses (unit gain, no delay, t > 0)
+# =====================================================================================
+
+def two_lag_step(t: np.ndarray, T1: float, T2: float) -> np.ndarray:
+    """Unit step response of 1/((T1 s+1)(T2 s+1)); equal lags and T2 = 0 handled exactly."""
+    T1, T2 = max(T1, T2), min(T1, T2)
+    if T2 <= 0:
+        return -np.expm1(-t / T1) if T1 > 0 else np.ones_like(t)
+    if abs(T1 - T2) <= 1e-9 * T1:
+        return gammainc(2.0, t / T1)
+    return 1.0 - (T1 * np.exp(-t / T1) - T2 * np.exp(-t / T2)) / (T1 - T2)
+
+
+def second_order_step(t: np.ndarray, zeta: float, wn: float) -> np.ndarray:
+    """Unit step response of wn^2/(s^2+2 zeta wn s+wn^2) (seed 001, underdamped formula)."""
+    if zeta < 1:
+        wd = wn * math.sqrt(1 - zeta**2)
+        return 1.0 - np.exp(-zeta * wn * t) * (
+            np.cos(wd * t) + zeta / math.sqrt(1 - zeta**2) * np.sin(wd * t)
+        )
+    if zeta == 1:
+        return gammainc(2.0, wn * t)
+    r = math.sqrt(zeta**2 - 1)
+    return two_lag_step(t, 1 / (wn * (zeta - r)), 1 / (wn * (zeta + r)))
+
+
+def _second_order_lags(p: Mapping[str, float]) -> list[float]:
+    if p["zeta"] < 1:
+        return []
+    r = math.sqrt(p["zeta"] ** 2 - 1)
+    return [1 / (p["wn"] * (p["zeta"] - r)), 1 / (p["wn"] * (p["zeta"] + r))]
+
+
+def _poly_power(base: list[float], n: int) -> list[float]:
+    den = np.poly1d([1.0])
+    for _ in range(n):
+        den = den * np.poly1d(base)
+    return [float(c) for c in den.coeffs]
+
+
+def _g(v: float, digits: int) -> str:
+    return f"{float(v):.{digits}g}"
+
+
+# =====================================================================================
+# Structures
+# =====================================================================================
+
+Params = Mapping[str, float]
+
+
+@dataclass(frozen=True)
+class Structure:
+    """One model structure: its parameters and everything derived from them.
+
+    ``step(p, t)``: the unit-gain step response of the rational part at times ``t > 0``
+    (the model adds K and the delay). ``num_den(p)``: numerator and denominator in
+    descending powers of s, gain included (None when there is no rational form, e.g. a
+    non-integer n). ``time_scale(p)``: the sum of the time constants (mean residence
+    time), the horizon the gate and the simulator measure against. ``bounds``: physical
+    limits of each parameter (refinement searches inside them).
+    """
+
+    name: str
+    params: tuple[str, ...]
+    formula: str
+    step: Callable[[Params, np.ndarray], np.ndarray]
+    num_den: Callable[[Params], tuple[list[float], list[float]] | None]
+    text: Callable[[Params, int], str]
+    time_scale: Callable[[Params], float]
+    order_class: Callable[[Params], str]
+    lags: Callable[[Params], list[float]] = lambda p: []
+    bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    integrating: bool = False
+
+    @property
+    def dynamics(self) -> tuple[str, ...]:
+        """The parameters other than the gain and the dead time."""
+        return tuple(p for p in self.params if p not in ("K", "delay"))
+
+
+_POSITIVE = (0.0, math.inf)
+_BOUNDS_DELAY = {"K": (-math.inf, math.inf), "delay": (0.0, math.inf)}
+
+STRUCTURES: dict[str, Structure] = {s.name: s for s in (
+    Structure(
+        "first_order", ("K", "T", "delay"), "K e^{-delay s}/(T s+1)",
+        step=lambda p, t: -np.expm1(-t / p["T"]),
+        num_den=lambda p: ([p["K"]], [p["T"], 1.0]),
+        text=lambda p, d: f"{_g(p['K'], d)}/({_g(p['T'], d)}s+1)",
+        time_scale=lambda p: abs(p["T"]),
+        order_class=lambda p: "first",
+        lags=lambda p: [p["T"]],
+        bounds={**_BOUNDS_DELAY, "T": _POSITIVE},
+    ),
+    Structure(
+        "second_order", ("K", "zeta", "wn", "delay"),
+        "K wn^2 e^{-delay s}/(s^2+2 zeta wn s+wn^2)",
+        step=lambda p, t: second_order_step(t, p["zeta"], p["wn"]),
+        num_den=lambda p: ([p["K"] * p["wn"] ** 2], [1.0, 2 * p["zeta"] * p["wn"],
+                                                     p["wn"] ** 2]),
+        text=lambda p, d: (f"{_g(p['K'] * p['wn'] ** 2, d)}/(s^2+{_g(2 * p['zeta'] * p['wn'], d)}"
+                           f"s+{_g(p['wn'] ** 2, d)})"),
+        # 2 zeta/wn is the sum of the time constants; a lightly damped pair still moves
+        # on the time scale 1/wn
+        time_scale=lambda p: max(2.0 * p["zeta"], 1.0) / p["wn"] if p["wn"] > 0 else math.nan,
+        order_class=lambda p: "second",
+        lags=_second_order_lags,
+        bounds={**_BOUNDS_DELAY, "zeta": (0.0, 50.0), "wn": _POSITIVE},
+    ),
+    Structure(
+        "two_lags", ("K", "T1", "T2", "delay"), "K e^{-delay s}/((T1 s+1)(T2 s+1))",
+        step=lambda p, t: two_lag_step(t, p["T1"], p["T2"]),
+        num_den=lambda p: ([p["K"]], [p["T1"] * p["T2"], p["T1"] + p["T2"], 1.0]),
+        text=lambda p, d: f"{_g(p['K'], d)}/(({_g(p['T1'], d)}s+1)({_g(p['T2'], d)}s+1))",
+        time_scale=lambda p: abs(p["T1"]) + abs(p["T2"]),
+        order_class=lambda p: "second",
+        lags=lambda p: [p["T1"], p["T2"]],
+        bounds={**_BOUNDS_DELAY, "T1": _POSITIVE, "T2": _POSITIVE},
+    ),
+    Structure(
+        "n_lags", ("K", "T", "n", "delay"), "K e^{-delay s}/(T s+1)^n",
+        step=lambda p, t: gammainc(float(p["n"]), t / p["T"]),
+        num_den=lambda p: (([p["K"]], _poly_power([p["T"], 1.0], int(p["n"])))
+                           if float(p["n"]).is_integer() else None),
+        text=lambda p, d: f"{_g(p['K'], d)}/({_g(p['T'], d)}s+1)^{_g(p['n'], d)}",
+        time_scale=lambda p: abs(p["T"]) * max(float(p["n"]), 0.0),
+        order_class=lambda p: {1.0: "first", 2.0: "second"}.get(float(p["n"]), "nth"),
+        lags=lambda p: [p["T"]] * int(p["n"]) if float(p["n"]).is_integer() else [],
+        bounds={**_BOUNDS_DELAY, "T": _POSITIVE, "n": (1.0, 20.0)},
+    ),
+)}
+
+
+# =====================================================================================
+# ProcessModel
+# =====================================================================================
+
+@dataclass(frozen=True)
 class ProcessModel:
-    """A process model: ``structure`` and ``params`` (names from :data:`STRUCTURES`)."""
+    """A process model: ``structure`` (a key of :data:`STRUCTURES`) and its ``params``."""
 
     structure: str
     params: dict[str, float] = field(default_factory=dict)
@@ -44,9 +246,14 @@ class ProcessModel:
     def __post_init__(self) -> None:
         if self.structure not in STRUCTURES:
             raise ValueError(f"unknown model structure {self.structure!r}")
-        missing = [p for p in STRUCTURES[self.structure] if p != "delay" and p not in self.params]
+        missing = [p for p in self.spec.params if p != "delay" and p not in self.params]
         if missing:
             raise ValueError(f"{self.structure} model is missing {missing}")
+
+    @property
+    def spec(self) -> Structure:
+        """The structure table entry of this model."""
+        return STRUCTURES[self.structure]
 
     # -- parameters ---------------------------------------------------------------------
     @property
@@ -60,24 +267,16 @@ class ProcessModel:
     @property
     def order_class(self) -> str:
         """"first", "second" or "nth": the three overlay views of the report."""
-        if self.structure == "n_lags":
-            n = float(self.params["n"])
-            return "first" if n == 1 else ("second" if n == 2 else "nth")
-        return ORDER_CLASS[self.structure]
+        return self.spec.order_class(self.params)
+
+    @property
+    def time_scale(self) -> float:
+        """The sum of the model's time constants (seconds), see :class:`Structure`."""
+        return float(self.spec.time_scale(self.params))
 
     def lags(self) -> list[float]:
         """Real time constants of the model, when it is a chain of real lags."""
-        p = self.params
-        if self.structure == "first_order":
-            return [p["T"]]
-        if self.structure == "two_lags":
-            return [p["T1"], p["T2"]]
-        if self.structure == "n_lags" and float(p["n"]).is_integer():
-            return [p["T"]] * int(p["n"])
-        if self.structure == "second_order" and p["zeta"] >= 1:
-            r = math.sqrt(p["zeta"] ** 2 - 1)
-            return [1 / (p["wn"] * (p["zeta"] - r)), 1 / (p["wn"] * (p["zeta"] + r))]
-        return []
+        return [float(v) for v in self.spec.lags(self.params)]
 
     # -- responses ----------------------------------------------------------------------
     def unit_step(self, t: np.ndarray) -> np.ndarray:
@@ -85,34 +284,13 @@ class ProcessModel:
         t = np.asarray(t, dtype=np.float64) - self.delay
         out = np.zeros_like(t)
         pos = t > 0
-        out[pos] = self.K * _unit_lag_response(self.structure, self.params, t[pos])
+        out[pos] = self.K * self.spec.step(self.params, t[pos])
         return out
-
-    def simulate(self, t, u, u0: float, y0: float) -> np.ndarray:
-        """Output for input ``u`` (zero-order hold) from the steady operating point (u0, y0)."""
-        from .simulate import simulate
-
-        return simulate(self, t, u, u0, y0)
 
     # -- transfer function --------------------------------------------------------------
     def num_den(self) -> tuple[list[float], list[float]] | None:
         """Numerator and denominator in descending powers of s (None if n is non-integer)."""
-        p = self.params
-        K = p["K"]
-        if self.structure == "first_order":
-            return [K], [p["T"], 1.0]
-        if self.structure == "second_order":
-            wn, z = p["wn"], p["zeta"]
-            return [K * wn**2], [1.0, 2 * z * wn, wn**2]
-        if self.structure == "two_lags":
-            return [K], [p["T1"] * p["T2"], p["T1"] + p["T2"], 1.0]
-        n = float(p["n"])
-        if not n.is_integer():
-            return None
-        den = np.poly1d([1.0])
-        for _ in range(int(n)):
-            den = den * np.poly1d([p["T"], 1.0])
-        return [K], [float(c) for c in den.coeffs]
+        return self.spec.num_den(self.params)
 
     def transfer_function(self):
         """``control.TransferFunction`` of the rational part (the delay is kept beside it)."""
@@ -136,50 +314,7 @@ class ProcessModel:
     def text(self, digits: int = 4) -> str:
         """A compact readable transfer function, e.g. ``20.7/(61.2s+1) e^(-2s)``."""
         p = {k: float(v) for k, v in self.params.items()}
-        g = lambda v: f"{v:.{digits}g}"  # noqa: E731
-        if self.structure == "first_order":
-            s = f"{g(p['K'])}/({g(p['T'])}s+1)"
-        elif self.structure == "second_order":
-            wn = p["wn"]
-            s = f"{g(p['K'] * wn**2)}/(s^2+{g(2 * p['zeta'] * wn)}s+{g(wn**2)})"
-        elif self.structure == "two_lags":
-            s = f"{g(p['K'])}/(({g(p['T1'])}s+1)({g(p['T2'])}s+1))"
-        else:
-            s = f"{g(p['K'])}/({g(p['T'])}s+1)^{g(p['n'])}"
+        s = self.spec.text(p, digits)
         if p.get("delay", 0.0) > 0:
-            s += f" e^(-{g(p['delay'])}s)"
+            s += f" e^(-{_g(p['delay'], digits)}s)"
         return s
-
-
-def _unit_lag_response(structure: str, p: dict, t: np.ndarray) -> np.ndarray:
-    """Unit-gain step response of the rational part at times ``t > 0``."""
-    if structure == "first_order":
-        return -np.expm1(-t / p["T"])
-    if structure == "two_lags":
-        return two_lag_step(t, p["T1"], p["T2"])
-    if structure == "n_lags":
-        return gammainc(float(p["n"]), t / p["T"])
-    return second_order_step(t, p["zeta"], p["wn"])
-
-
-def two_lag_step(t: np.ndarray, T1: float, T2: float) -> np.ndarray:
-    """Unit step response of 1/((T1 s+1)(T2 s+1)); equal lags and T2 = 0 handled exactly."""
-    T1, T2 = max(T1, T2), min(T1, T2)
-    if T2 <= 0:
-        return -np.expm1(-t / T1) if T1 > 0 else np.ones_like(t)
-    if abs(T1 - T2) <= 1e-9 * T1:
-        return gammainc(2.0, t / T1)
-    return 1.0 - (T1 * np.exp(-t / T1) - T2 * np.exp(-t / T2)) / (T1 - T2)
-
-
-def second_order_step(t: np.ndarray, zeta: float, wn: float) -> np.ndarray:
-    """Unit step response of wn^2/(s^2+2 zeta wn s+wn^2) (seed 001, underdamped formula)."""
-    if zeta < 1:
-        wd = wn * math.sqrt(1 - zeta**2)
-        return 1.0 - np.exp(-zeta * wn * t) * (
-            np.cos(wd * t) + zeta / math.sqrt(1 - zeta**2) * np.sin(wd * t)
-        )
-    if zeta == 1:
-        return gammainc(2.0, wn * t)
-    r = math.sqrt(zeta**2 - 1)
-    return two_lag_step(t, 1 / (wn * (zeta - r)), 1 / (wn * (zeta + r)))

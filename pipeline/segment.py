@@ -27,14 +27,14 @@ Algorithm (pure function of the record):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.stats import trim_mean
 
-from .events import Event
-from .methods.base import noise_sigma, smooth
-from .record import Record
+from .events import Event, EventData
+from .record import Record, make_record
+from .signal import noise_sigma, smooth
 
 
 @dataclass(frozen=True)
@@ -232,3 +232,19 @@ def _step_settled(t, y, y0, y_ss, noise, opt: SegmentOptions) -> bool:
         return False
     t63 = t[reach[0]] - t[0]
     return bool(t[-1] - t[0] >= opt.settle_time_constants * max(t63, t[1] - t[0]))
+
+
+def event_data(t, u, y, *, initial_input: float | None = None, event: int = 0,
+               options: SegmentOptions | None = None, **override) -> EventData:
+    """Segment plain arrays and return the :class:`EventData` of event number ``event``;
+    keywords override any field (e.g. ``y0=...``, ``kind="impulse"``, ``area=...``).
+
+    The way to run a method on numpy arrays without a file or the CLI::
+
+        fit = identify(event_data(t, u, y), "first_order")
+    """
+    rec = make_record(t, u, y, name="arrays", source="<arrays>", initial_input=initial_input)
+    events = segment(rec, options)
+    if not events:
+        raise ValueError("no step or impulse event found in the arrays")
+    return replace(EventData.from_event(rec, events[event]), **override)

@@ -19,12 +19,13 @@ from .events import Event
 from .metrics import fit_percent, ise, mse
 from .models import ProcessModel
 from .record import Record
+from .simulate import simulate
 
 
 def event_simulation(model: ProcessModel, record: Record, ev: Event) -> np.ndarray:
     """Model output over the event window, started at rest at the event's (u0, y0)."""
     sl = slice(ev.i_start, ev.i_end)
-    return model.simulate(record.t[sl], record.u[sl], ev.u0, ev.y0)
+    return simulate(model, record.t[sl], record.u[sl], ev.u0, ev.y0)
 
 
 def validation_runs(events: list[Event], validation: list[int]) -> list[tuple[int, int, Event]]:
@@ -45,7 +46,7 @@ def validation_simulation(model: ProcessModel, record: Record, events: list[Even
     out = []
     for a, b, first in validation_runs(events, validation):
         sl = slice(a, b)
-        out.append((sl, model.simulate(record.t[sl], record.u[sl], first.u0, first.y0)))
+        out.append((sl, simulate(model, record.t[sl], record.u[sl], first.u0, first.y0)))
     return out
 
 

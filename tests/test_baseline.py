@@ -28,7 +28,7 @@ from pipeline.events import EventData
 from pipeline.methods import identify
 from pipeline.record import Record
 from pipeline.report.junit import junit_xml, write_junit
-from pipeline.segment import segment
+from pipeline.segment import event_data, segment
 from pipeline.synth_logs import LogPlan, log_record, plan_logs
 from pipeline.validate import score
 
@@ -139,7 +139,7 @@ def test_ok_to_not_applicable_is_a_regression(baseline):
     t = np.arange(400) * 0.1
     u = np.where(t >= 5.0, 60.0, 50.0)
     flat = 30.0 + np.random.default_rng(0).normal(0.0, 0.2, t.size)  # the output never moves
-    fit = identify(EventData.from_arrays(t, u, flat), "first_order")
+    fit = identify(event_data(t, u, flat), "first_order")
     assert fit.status == "not_applicable"
     rec = current["records"][1]
     rec["fits"] = [fit.to_dict() if f["method"] == "first_order" else f for f in rec["fits"]]

@@ -11,6 +11,7 @@ from pipeline.events import EventData
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
+from pipeline.segment import event_data
 from pipeline.synth import pulse, response, staircase
 
 
@@ -18,7 +19,7 @@ def _step(model, *, u0=1.0, u1=3.0, t0=5.0, y0=-2.0, dt=0.01, t_end=40.0, noise=
     t = np.arange(int(round(t_end / dt)) + 1) * dt
     u = staircase(t, u0, [(t0, u1)])
     y = response(model, t, u, u0, y0, noise * abs(model.K * (u1 - u0)), seed)
-    return EventData.from_arrays(t, u, y)
+    return event_data(t, u, y)
 
 
 def _impulse(model, *, u0=2.0, height=4.0, width=0.05, t0=2.0, y0=0.5, dt=0.005,
@@ -26,7 +27,7 @@ def _impulse(model, *, u0=2.0, height=4.0, width=0.05, t0=2.0, y0=0.5, dt=0.005,
     t = np.arange(int(round(t_end / dt)) + 1) * dt
     u = pulse(t, u0, t0, width, height)
     y = response(model, t, u, u0, y0, noise * model.K * height * width, 1)
-    return EventData.from_arrays(t, u, y)
+    return event_data(t, u, y)
 
 
 PLANTS = {
@@ -42,7 +43,7 @@ EVENTS = {
     "noisy-step-two-lags": lambda: _step(PLANTS["two_lags"], noise=0.01),
     "impulse-first": lambda: _impulse(PLANTS["first"]),
     "impulse-underdamped": lambda: _impulse(PLANTS["underdamped"]),
-    "no-change": lambda: EventData.from_arrays(
+    "no-change": lambda: event_data(
         np.arange(1000) * 0.01, staircase(np.arange(1000) * 0.01, 0, [(2.0, 1.0)]),
         np.zeros(1000), y_ss=0.0),
 }

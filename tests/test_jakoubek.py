@@ -30,6 +30,7 @@ from pipeline.methods.harriott import harriott
 from pipeline.metrics import ise
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
+from pipeline.segment import event_data
 from pipeline.synth import step_record
 
 DT = 1e-3
@@ -78,7 +79,7 @@ def event(system: int) -> EventData:
         u = np.where(t >= T0 - 1e-9, U1, U0)
         y = Y0 + (U1 - U0) * five_lag_step(t - T0)
         rec = make_record(t, u, y, name="jakoubek5", source="<eq. 30>")
-    return EventData.from_arrays(rec.t, rec.u, rec.y)
+    return event_data(rec.t, rec.u, rec.y)
 
 
 def F(T: float, delay: float = 0.0) -> ProcessModel:

@@ -21,7 +21,6 @@ from mcap_protobuf.writer import Writer as ProtobufWriter
 from mcap_ros2.writer import Writer as Ros2Writer
 
 from pipeline.errors import UserError
-from pipeline.events import EventData
 from pipeline.io.mcap import (
     Signal,
     format_inspect,
@@ -32,6 +31,7 @@ from pipeline.io.mcap import (
 )
 from pipeline.methods import identify
 from pipeline.models import ProcessModel
+from pipeline.segment import event_data
 from pipeline.synth import staircase, step_record
 
 PLANT = ProcessModel("first_order", {"K": 2.5, "T": 7.0})
@@ -68,7 +68,7 @@ def stamp(t_ns: int) -> dict:
 
 
 def first_order(t, u, y) -> tuple[float, float]:
-    fit = identify(EventData.from_arrays(t, u, y, initial_input=U0), "first_order")
+    fit = identify(event_data(t, u, y, initial_input=U0), "first_order")
     assert fit.ok, fit.reason
     return fit.model.params["K"], fit.model.params["T"]
 
@@ -510,7 +510,7 @@ def test_example_log(tmp_path):
     rec = load_mcap(path, Signal(*EXAMPLE["input"]), Signal(*EXAMPLE["output"]),
                     sample_time=0.5, max_gap=5.0, initial_input=EXAMPLE["u0"])
     assert not any(n.startswith("gap") for n in rec.notes)
-    fit = identify(EventData.from_arrays(rec.t, rec.u, rec.y,
+    fit = identify(event_data(rec.t, rec.u, rec.y,
                                          initial_input=EXAMPLE["u0"]), "first_order")
     p = fit.model.params
     assert math.isclose(p["K"], EXAMPLE["K"], rel_tol=0.03)

@@ -1,7 +1,7 @@
 """Seed 000 / 001 transient-analysis methods against known truth (STYLE.md 10).
 
 Every case is a plant with known parameters, simulated exactly by ``pipeline.synth``,
-segmented by ``EventData.from_arrays`` and identified through the registry. Noisy cases
+segmented by ``event_data`` and identified through the registry. Noisy cases
 run five fixed noise seeds and require every one of them inside the tolerance.
 
 Noise levels: steps get white noise of standard deviation 1 % of the output change
@@ -27,6 +27,7 @@ from scipy.optimize import brentq
 from pipeline.events import EventData
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import ProcessModel, second_order_step
+from pipeline.segment import event_data
 from pipeline.synth import pulse, response, step_record
 
 SEEDS = (0, 1, 2, 3, 4)
@@ -55,7 +56,7 @@ def step(model: ProcessModel, *, u0: float, u1: float, t0: float, y0: float, dt:
         sd = noise * abs(model.K * (u1 - u0))
         rec = step_record(model, u0=u0, changes=[(t0, u1)], t_end=t_end, dt=dt, y0=y0,
                           noise=sd, seed=seed)
-        return EventData.from_arrays(rec.t, rec.u, rec.y, initial_input=u0)
+        return event_data(rec.t, rec.u, rec.y, initial_input=u0)
 
     return make
 
@@ -73,7 +74,7 @@ def impulse(model: ProcessModel, *, u0: float, t_on: float, width: float, height
         if noise:
             sd = noise * float(np.max(np.abs(y - y0)))
             y = y + np.random.default_rng(seed).normal(0.0, sd, y.size)
-        return EventData.from_arrays(t, u, y, initial_input=u0)
+        return event_data(t, u, y, initial_input=u0)
 
     return make
 
@@ -323,7 +324,7 @@ def flat(kind: str) -> Callable[[int], EventData]:
     def make(seed: int) -> EventData:
         t = np.arange(601) * 0.1
         u = pulse(t, 0.0, 1.0, 0.5, 1.0) if kind == "impulse" else np.where(t >= 1.0, 1.0, 0.0)
-        return EventData.from_arrays(t, u, np.full(t.size, 3.0), initial_input=0.0)
+        return event_data(t, u, np.full(t.size, 3.0), initial_input=0.0)
 
     return make
 

@@ -2,7 +2,7 @@
 conformance check (STYLE.md 10).
 
 Records come from :func:`pipeline.synth.step_record` (exact ZOH simulation) from a
-nonzero operating point and go through segmentation (``EventData.from_arrays``).
+nonzero operating point and go through segmentation (``event_data``).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from pipeline.methods.harriott import harriott
 from pipeline.methods.strejc import inflection_tangent, strejc_order
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
+from pipeline.segment import event_data
 from pipeline.synth import step_record
 
 SEED02 = ("viteckova1", "viteckova2", "latzel", "harriott", "smith", "strejc", "sundaresan")
@@ -52,7 +53,7 @@ def make_event(plant: ProcessModel, *, after: float, dt: float, t0: float = 3.0,
     sd = noise * abs(plant.K * (u[1] - u[0]))
     rec = step_record(plant, u0=u[0], changes=[(t0, u[1])], t_end=t0 + after, dt=dt, y0=y0,
                       noise=sd, seed=seed)
-    return EventData.from_arrays(rec.t, rec.u, rec.y)
+    return event_data(rec.t, rec.u, rec.y)
 
 
 def canonical(model: ProcessModel) -> dict[str, float]:
@@ -293,7 +294,7 @@ def flat_event() -> EventData:
     u = np.where(t >= 3.0, 2.0, 1.0)
     y = 5.0 + np.random.default_rng(0).normal(0.0, 0.01, t.size)
     rec = make_record(t, u, y, name="flat", source="<flat>")
-    return EventData.from_arrays(rec.t, rec.u, rec.y)
+    return event_data(rec.t, rec.u, rec.y)
 
 
 CONFORMANCE = ("first_order", "underdamped", "five_lags", "negative_step", "negative_gain",

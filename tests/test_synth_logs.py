@@ -6,8 +6,8 @@ import numpy as np
 import polars as pl
 import pytest
 
-from pipeline.events import EventData
 from pipeline.methods import identify
+from pipeline.segment import event_data
 from pipeline.synth_logs import (
     CORRUPTIONS,
     log_record,
@@ -55,7 +55,7 @@ def test_plants_vary_mildly_and_drift_multiplies_gain():
 def test_identified_gain_matches_truth():
     for plan in plan_logs(3, seed=2):
         rec = log_record(plan)
-        fit = identify(EventData.from_arrays(rec.t, rec.u, rec.y), "first_order")
+        fit = identify(event_data(rec.t, rec.u, rec.y), "first_order")
         assert fit.ok
         assert fit.model.params["K"] == pytest.approx(plan.K, rel=0.02)
         assert fit.model.params["T"] == pytest.approx(plan.T, rel=0.12)

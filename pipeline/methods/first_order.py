@@ -6,7 +6,8 @@ import math
 
 from ..events import EventData
 from ..models import ProcessModel
-from .base import band_exit_time, crossing_time, normalised
+from ..signal import crossing_time
+from .base import band_exit_time, normalised
 from .registry import MethodResult, register
 
 LEVEL_T = 0.632  # seed 001 writes 0.632 (ERRATA [S1] 13: 1 - e^-1 = 0.63212)

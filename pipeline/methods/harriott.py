@@ -32,7 +32,8 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import crossing_time, normalised, value_at
+from ..signal import crossing_time, value_at
+from .base import normalised
 from .charts import (
     HARRIOTT_LEVEL,
     HARRIOTT_READ_AT,

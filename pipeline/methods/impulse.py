@@ -23,7 +23,8 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import crossing_time, smooth
+from ..signal import crossing_time, smooth
+from ..simulate import simulate
 from .registry import MethodResult, register
 from .second_order import oscillation, zeta_from_overshoot
 
@@ -62,7 +63,7 @@ def _deviation(ev: EventData, base: float) -> tuple[np.ndarray, np.ndarray, floa
 def _model_response(ev: EventData, model: ProcessModel) -> np.ndarray:
     """Deviation output of ``model`` driven by the measured pulse, from the pulse start."""
     i = ev.i0
-    return model.simulate(ev.t[i:], ev.u[i:], ev.u0, 0.0)
+    return simulate(model, ev.t[i:], ev.u[i:], ev.u0, 0.0)
 
 
 def _pooled_baseline(ev: EventData, y_model: np.ndarray, a: float) -> tuple[float, str, int]:

@@ -18,7 +18,8 @@ from __future__ import annotations
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import crossing_time, normalised
+from ..signal import crossing_time
+from .base import normalised
 from .charts import LATZEL_TABLE
 from .registry import MethodResult, register
 

@@ -9,7 +9,8 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import band_exit_time, crossing_time, extremum, normalised, smooth
+from ..signal import crossing_time, extremum, smooth
+from .base import band_exit_time, normalised
 from .registry import MethodResult, register
 from .second_order import oscillation, time_to_fraction, zeta_from_overshoot
 

@@ -10,7 +10,8 @@ from scipy.optimize import brentq
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel, second_order_step
-from .base import band_exit_time, crossing_time, extremum, normalised, smooth
+from ..signal import crossing_time, extremum, smooth
+from .base import band_exit_time, normalised
 from .registry import MethodResult, register
 
 

@@ -31,7 +31,8 @@ import math
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import crossing_time, normalised
+from ..signal import crossing_time
+from .base import normalised
 from .charts import SMITH_RATIO_MAX, SMITH_RATIO_MIN, smith_lookup
 from .registry import MethodResult, register
 

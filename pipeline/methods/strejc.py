@@ -50,7 +50,8 @@ from scipy.signal import savgol_filter
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import NOISE_FREE, crossing_time, normalised, value_at
+from ..signal import NOISE_FREE, crossing_time, value_at
+from .base import normalised
 from .charts import (
     STREJC_LEVEL_SUM,
     STREJC_READ_AT,

@@ -13,7 +13,8 @@ from __future__ import annotations
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import crossing_time, normalised
+from ..signal import crossing_time
+from .base import normalised
 from .registry import MethodResult, register
 
 LEVEL_LOW = 0.353

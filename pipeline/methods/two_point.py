@@ -9,7 +9,8 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from .base import crossing_time, normalised
+from ..signal import crossing_time
+from .base import normalised
 from .registry import MethodResult, register
 
 #: Default read points, as fractions of the output change: both on the steep, well
