@@ -4,19 +4,48 @@ Data conventions (written down once, used everywhere):
 
 - time in seconds; ``t``, ``u``, ``y`` are float64 1-D numpy arrays, ``t`` strictly increasing;
 - models work in deviation variables from the operating point ``(u0, y0)``;
-- parameter names are ``K`` (gain), ``T`` (time constant), ``T1``, ``T2`` (two distinct
-  time constants), ``n`` (order of an equal-lag model), ``zeta`` (damping), ``wn``
-  (natural frequency, rad/s) and ``delay`` (dead time, s). There is no second spelling.
+- parameter and structure names come from one table each, :data:`PARAMETERS` and
+  :data:`STRUCTURES` (``K`` gain, ``T``, ``T1``, ``T2`` time constants, ``n`` order of an
+  equal-lag model, ``zeta`` damping, ``wn`` natural frequency in rad/s, ``delay`` dead
+  time in s). There is no second spelling.
+
+The public API (everything in ``__all__``) is imported on first use, so ``import
+pipeline`` and the command line start fast::
+
+    import pipeline
+
+    result = pipeline.identify(t, u, y)          # numpy arrays -> RecordResult
+    fit = result.best                              # fit.model.params, fit.metrics
+    record = pipeline.load("log.csv", input="u", output="y", time="t")
+    result = pipeline.analyse(record)
 """
 
-import os
-from importlib.metadata import PackageNotFoundError, version
+from importlib import import_module
 
-# Many small problems: BLAS threads cost more than they save (2.7x slower in-process on a
-# 2-core machine, BENCHMARKS.md) and oversubscribe the batch pool. A user's setting wins.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+from .version import __version__
 
-try:
-    __version__ = version("pipeline")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+local"
+#: public name -> module that defines it
+_API = {
+    "load": "api", "identify": "api",
+    "analyse": "analyse", "AnalysisOptions": "analyse",
+    "run_config": "run", "identify_file": "run",
+    "Record": "record", "make_record": "record",
+    "segment": "segment", "event_data": "segment", "SegmentOptions": "segment",
+    "ProcessModel": "models", "STRUCTURES": "models", "PARAMETERS": "models",
+    "simulate": "simulate",
+    "identify_event": "api", "REGISTRY": "methods",
+    "RecordResult": "results", "RunResult": "results", "load_results": "results",
+    "UserError": "errors", "ExitCode": "errors",
+}
+
+__all__ = ["__version__", *_API]
+
+
+def __getattr__(name: str):
+    if name in _API:
+        return getattr(import_module(f".{_API[name]}", __name__), name)
+    raise AttributeError(f"module 'pipeline' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

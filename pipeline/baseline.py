@@ -15,8 +15,10 @@ Records are matched by ``name``, fits by ``(event, method)``. :func:`compare` re
     units of the main lag;
   - ``zeta`` with ``max(|zeta|, 0.1)``.
 
-  Tolerances: ``param_tols[name]`` when given, else ``param_tol`` for the gain ``K`` and
-  ``dynamics_factor * param_tol`` for the dynamics (``T, T1, T2, n, zeta, wn, delay``).
+  Tolerances: ``param_tols[name]`` when given, else ``param_tol`` for the parameters whose
+  tolerance class is "gain" in :data:`pipeline.models.PARAMETERS` and
+  ``dynamics_factor * param_tol`` for the "dynamics" ones; the scale of each parameter
+  (its value, the model's time scale, the dominant lag, a floor) is in the same table.
   The factor (default 3, so 15 %) is calibrated on noise: a step test pins the gain to a
   ratio of two averaged plateaus, while the dynamics are read off a few samples of the
   transient. On first-order-plus-dead-time logs with white noise of 1 % of the step
@@ -48,27 +50,25 @@ Records are matched by ``name``, fits by ``(event, method)``. :func:`compare` re
 Records and fits present now but not in the baseline, and fits or records that became
 ok, are listed in ``new``: information, never a failure.
 
-:func:`accept` (promote a results.json to be the baseline) is the only function that
-touches files, with :func:`load_results`.
+:func:`compare` takes two :class:`~pipeline.schema.ResultsDoc` (a plain dict is validated
+into one first). :func:`accept` (promote a results.json to be the baseline) is the only
+function that touches files.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .errors import UserError
-from .files import read_text, write_atomic
-
-KINDS = ("param_drift", "mse_growth", "status", "missing", "new")
-DYNAMICS = frozenset({"T", "T1", "T2", "n", "zeta", "wn", "delay"})
-ZETA_FLOOR = 0.1
+from .files import write_atomic
+from .models import PARAMETERS, STRUCTURES, ProcessModel
+from .results import as_doc, load_results
+from .schema import FitDoc, RecordDoc, ResultsDoc
 
 
 @dataclass(frozen=True)
@@ -169,11 +169,13 @@ class Tolerances:
     param_tols: Mapping[str, float] = field(default_factory=dict)
     dynamics_factor: float = 3.0
     mse_tol: float = 0.10
+    missing_is_regression: bool = True
 
     def for_param(self, name: str) -> float:
         if name in self.param_tols:
             return float(self.param_tols[name])
-        return self.param_tol * (self.dynamics_factor if name in DYNAMICS else 1.0)
+        gain = name in PARAMETERS and PARAMETERS[name].tolerance == "gain"
+        return self.param_tol * (1.0 if gain else self.dynamics_factor)
 
     @property
     def dynamics(self) -> float:
@@ -182,13 +184,13 @@ class Tolerances:
 
 # -- the comparison ----------------------------------------------------------------------
 
-def compare(current: dict, baseline: dict, *, param_tol: float = 0.05,
-            param_tols: dict[str, float] | None = None, mse_tol: float = 0.10,
-            dynamics_factor: float = 3.0, missing_is_regression: bool = True) -> Comparison:
-    """Compare two results.json objects (see the module docstring for the rules)."""
-    tol = Tolerances(param_tol, dict(param_tols or {}), dynamics_factor, mse_tol)
-    cur = _by_name(current.get("records", []))
-    base = _by_name(baseline.get("records", []))
+def compare(current: ResultsDoc | dict, baseline: ResultsDoc | dict,
+            tol: Tolerances | None = None) -> Comparison:
+    """Compare two results documents (see the module docstring for the rules)."""
+    tol = tol or Tolerances()
+    current, baseline = as_doc(current), as_doc(baseline)
+    cur = {r.name: r for r in current.records}
+    base = {r.name: r for r in baseline.records}
     found: list[Finding] = []
     for name, b in base.items():
         found.extend(_compare_record(name, cur.get(name), b, tol))
@@ -196,35 +198,28 @@ def compare(current: dict, baseline: dict, *, param_tol: float = 0.05,
                  for name in cur if name not in base)
     missing = tuple(f for f in found if f.kind == "missing")
     regressions = tuple(f for f in found if f.kind not in ("new", "missing") or (
-        f.kind == "missing" and missing_is_regression and f.baseline_value == "ok"))
+        f.kind == "missing" and tol.missing_is_regression and f.baseline_value == "ok"))
     return Comparison(
         regressions=regressions,
         new=tuple(f for f in found if f.kind == "new"),
         missing=missing,
-        settings={"param_tol": param_tol, "param_tols": dict(param_tols or {}),
-                  "dynamics_factor": dynamics_factor, "mse_tol": mse_tol,
-                  "missing_is_regression": missing_is_regression},
+        settings={"param_tol": tol.param_tol, "param_tols": dict(tol.param_tols),
+                  "dynamics_factor": tol.dynamics_factor, "mse_tol": tol.mse_tol,
+                  "missing_is_regression": tol.missing_is_regression},
     )
 
 
-def _by_name(records: Iterable[dict]) -> dict[str, dict]:
-    return {str(r["name"]): r for r in records}
-
-
-def _status(obj: dict | None) -> str | None:
-    return None if obj is None else str(obj.get("status", "ok"))
-
-
-def _compare_record(name: str, cur: dict | None, base: dict, tol: Tolerances
+def _compare_record(name: str, cur: RecordDoc | None, base: RecordDoc, tol: Tolerances
                     ) -> list[Finding]:
-    b_status, c_status = _status(base), _status(cur)
+    b_status = base.status
     if cur is None:
         return [Finding(name, None, None, "missing", "status", b_status, None,
                         message=f"{name}: in the baseline ({b_status}) but not in this run")]
+    c_status = cur.status
     if b_status == "ok" and c_status != "ok":
         return [Finding(name, None, None, "status", "status", "ok", c_status,
                         message=f"{name}: record was ok, now {c_status}: "
-                                f"{cur.get('error') or 'no reason given'}")]
+                                f"{cur.error or 'no reason given'}")]
     if b_status != "ok" and c_status == "ok":
         return [_new_item(name, None, None, f"record now ok (was {b_status})")]
     if c_status != "ok":
@@ -232,11 +227,12 @@ def _compare_record(name: str, cur: dict | None, base: dict, tol: Tolerances
     return _compare_fits(name, cur, base, tol)
 
 
-def _fits(record: dict) -> dict[tuple[int, str], dict]:
-    return {(int(f["event"]), str(f["method"])): f for f in record.get("fits", [])}
+def _fits(record: RecordDoc) -> dict[tuple[int, str], FitDoc]:
+    return {(f.event, f.method): f for f in record.fits}
 
 
-def _compare_fits(name: str, cur: dict, base: dict, tol: Tolerances) -> list[Finding]:
+def _compare_fits(name: str, cur: RecordDoc, base: RecordDoc, tol: Tolerances
+                  ) -> list[Finding]:
     cf, bf = _fits(cur), _fits(base)
     dy = step_size(base)
     out: list[Finding] = []
@@ -245,16 +241,16 @@ def _compare_fits(name: str, cur: dict, base: dict, tol: Tolerances) -> list[Fin
         c = cf.get(key)
         where = f"{name} event {event} {method}"
         if c is None:
-            out.append(Finding(name, event, method, "missing", "status", _status(b), None,
-                               message=f"{where}: in the baseline ({_status(b)}) but not "
+            out.append(Finding(name, event, method, "missing", "status", b.status, None,
+                               message=f"{where}: in the baseline ({b.status}) but not "
                                        "in this run"))
-        elif _status(b) == "ok" and _status(c) != "ok":
-            out.append(Finding(name, event, method, "status", "status", "ok", _status(c),
-                               message=f"{where}: was ok, now {_status(c)}: "
-                                       f"{c.get('reason') or 'no reason given'}"))
-        elif _status(b) != "ok" and _status(c) == "ok":
-            out.append(_new_item(name, event, method, f"now ok (was {_status(b)})"))
-        elif _status(b) == "ok":
+        elif b.status == "ok" and c.status != "ok":
+            out.append(Finding(name, event, method, "status", "status", "ok", c.status,
+                               message=f"{where}: was ok, now {c.status}: "
+                                       f"{c.reason or 'no reason given'}"))
+        elif b.status != "ok" and c.status == "ok":
+            out.append(_new_item(name, event, method, f"now ok (was {b.status})"))
+        elif b.status == "ok":
             out.extend(param_findings(name, event, method, b, c, tol))
             out.extend(mse_findings(name, event, method, b, c, tol, dy))
     out.extend(_new_item(name, e, m, "fit not in the baseline")
@@ -270,33 +266,28 @@ def _new_item(record: str, event: int | None, method: str | None, what: str) -> 
 # -- parameters --------------------------------------------------------------------------
 
 def time_scale(structure: str | None, params: Mapping[str, float]) -> float:
-    """Mean residence time of the model's lags (the sum of its time constants), seconds.
-
-    ``max(2 zeta, 1)/wn`` for the second-order structure (``2 zeta/wn`` is the sum of its
-    time constants; a lightly damped one still moves on the time scale ``1/wn``).
-    NaN when the parameters do not say.
-    """
-    p = {k: float(v) for k, v in params.items() if _is_number(v)}
-    if "T1" in p and "T2" in p:
-        return abs(p["T1"]) + abs(p["T2"])
-    if "T" in p:
-        return abs(p["T"]) * max(p.get("n", 1.0), 0.0)
-    if "wn" in p and p["wn"] > 0:
-        return max(2.0 * p.get("zeta", 0.5), 1.0) / p["wn"]
-    return math.nan
+    """The model's time scale (the structure table's sum of time constants), seconds;
+    NaN when the structure or its parameters do not say."""
+    try:
+        return float(STRUCTURES[str(structure)].time_scale(
+            {k: float(v) for k, v in params.items()}))
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        return math.nan
 
 
 def param_scale(name: str, structure: str | None, params: Mapping[str, float]) -> float:
     """The magnitude a change of parameter ``name`` is measured against (module docstring)."""
     value = abs(float(params.get(name, 0.0)))
-    if name == "delay":
+    spec = PARAMETERS.get(name)
+    if spec is None:
+        return value
+    if spec.scale == "time_scale":
         ts = time_scale(structure, params)
-        return max(value, ts) if math.isfinite(ts) else value
-    if name in ("T1", "T2"):
-        return max(abs(float(params.get("T1", 0.0))), abs(float(params.get("T2", 0.0))))
-    if name == "zeta":
-        return max(value, ZETA_FLOOR)
-    return value
+        value = max(value, ts) if math.isfinite(ts) else value
+    elif spec.scale == "dominant_lag":
+        value = max(abs(float(params.get(p, 0.0))) for p in PARAMETERS
+                    if PARAMETERS[p].scale == "dominant_lag")
+    return max(value, spec.floor)
 
 
 def relative_change(name: str, structure: str | None, base_params: Mapping[str, float],
@@ -310,11 +301,11 @@ def relative_change(name: str, structure: str | None, base_params: Mapping[str, 
     return diff / scale if scale > 0 else math.copysign(math.inf, diff)
 
 
-def param_findings(record: str, event: int, method: str, base: dict, cur: dict,
+def param_findings(record: str, event: int, method: str, base: FitDoc, cur: FitDoc,
                    tol: Tolerances) -> list[Finding]:
     """Parameter drift (or a structure change) of one fit that is ok in both runs."""
-    bs, cs = base.get("structure"), cur.get("structure")
-    bp, cp = dict(base.get("params") or {}), dict(cur.get("params") or {})
+    bs, cs = base.structure, cur.structure
+    bp, cp = dict(base.params or {}), dict(cur.params or {})
     where = f"{record} event {event} {method}"
     out = []
     names = set(bp) | set(cp)
@@ -338,9 +329,10 @@ def param_findings(record: str, event: int, method: str, base: dict, cur: dict,
     return out
 
 
-def _structure_findings(record, event, method, base, cur, tol: Tolerances) -> list[Finding]:
-    bs, cs = base.get("structure"), cur.get("structure")
-    dist = step_response_distance(bs, base.get("params") or {}, cs, cur.get("params") or {})
+def _structure_findings(record, event, method, base: FitDoc, cur: FitDoc,
+                        tol: Tolerances) -> list[Finding]:
+    bs, cs = base.structure, cur.structure
+    dist = step_response_distance(bs, base.params or {}, cs, cur.params or {})
     if math.isfinite(dist) and dist <= tol.dynamics:
         return []
     return [Finding(
@@ -358,8 +350,6 @@ def step_response_distance(structure_a: str | None, params_a: Mapping[str, float
 
     The horizon is ten time scales plus the longer dead time, so both have settled.
     """
-    from .models import ProcessModel
-
     try:
         a = ProcessModel(str(structure_a), {k: float(v) for k, v in params_a.items()})
         b = ProcessModel(str(structure_b), {k: float(v) for k, v in params_b.items()})
@@ -374,11 +364,10 @@ def step_response_distance(structure_a: str | None, params_a: Mapping[str, float
 
 # -- validation MSE ----------------------------------------------------------------------
 
-def step_size(record: dict) -> float:
+def step_size(record: RecordDoc) -> float:
     """Median ``|y_ss - y0|`` over the record's step events (0 when there are none)."""
-    dys = [abs(float(e["y_ss"]) - float(e["y0"])) for e in record.get("events", [])
-           if e.get("kind", "step") == "step" and _is_number(e.get("y_ss"))
-           and _is_number(e.get("y0"))]
+    dys = [abs(e.y_ss - e.y0) for e in record.events
+           if e.kind == "step" and e.y_ss is not None and e.y0 is not None]
     return float(np.median(dys)) if dys else 0.0
 
 
@@ -387,11 +376,10 @@ def mse_limit(baseline_mse: float, tol: Tolerances, dy: float) -> float:
     return (1.0 + tol.mse_tol) * baseline_mse + (tol.param_tol * dy) ** 2
 
 
-def mse_findings(record: str, event: int, method: str, base: dict, cur: dict,
+def mse_findings(record: str, event: int, method: str, base: FitDoc, cur: FitDoc,
                  tol: Tolerances, dy: float) -> list[Finding]:
-    """Validation MSE growth of one fit that is ok in both runs (NaN: not compared)."""
-    b = (base.get("metrics") or {}).get("mse_validation")
-    c = (cur.get("metrics") or {}).get("mse_validation")
+    """Validation MSE growth of one fit that is ok in both runs (null: not compared)."""
+    b, c = base.metrics.mse_validation, cur.metrics.mse_validation
     if not (_is_number(b) and _is_number(c)):
         return []
     b, c = float(b), float(c)
@@ -409,11 +397,9 @@ def mse_findings(record: str, event: int, method: str, base: dict, cur: dict,
 
 # -- formatting helpers ------------------------------------------------------------------
 
-_ORDER = ("K", "T", "T1", "T2", "n", "zeta", "wn", "delay")
-
-
 def _param_order(name: str) -> tuple[int, str]:
-    return (_ORDER.index(name) if name in _ORDER else len(_ORDER), name)
+    order = list(PARAMETERS)
+    return (order.index(name) if name in order else len(order), name)
 
 
 def _is_number(v) -> bool:
@@ -437,7 +423,7 @@ def _pct(x: float, sign: bool = True) -> str:
 
 
 def _scale_note(name: str, structure: str | None, params: Mapping[str, float]) -> str:
-    if name in ("delay", "T1", "T2", "zeta"):
+    if name in PARAMETERS:
         scale = param_scale(name, structure, params)
         if scale != abs(float(params.get(name, 0.0))):
             return f", relative to {_num(scale)}"
@@ -446,27 +432,13 @@ def _scale_note(name: str, structure: str | None, params: Mapping[str, float]) -
 
 # -- files (the edges) -------------------------------------------------------------------
 
-def load_results(path: str | os.PathLike) -> dict:
-    """Read a results.json (or baseline) file; a problem is a one-line :class:`UserError`."""
-    p = Path(path)
-    text = read_text(p, "results file")
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise UserError(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("records"), list):
-        raise UserError(f"{p}: not a results.json file; expected an object with a "
-                        "'records' list")
-    return doc
-
-
 def accept(results_path: str | os.PathLike, to_path: str | os.PathLike) -> Path:
     """Make ``results_path`` the baseline at ``to_path`` (validated, written atomically).
 
     The bytes are copied unchanged; the target folder is created. Returns ``to_path``.
     """
     src = Path(results_path)
-    load_results(src)  # refuse to accept something that is not a results file
+    load_results(src)  # refuse to accept something that is not a valid results file
     dst = Path(to_path)
     dst.parent.mkdir(parents=True, exist_ok=True)
     write_atomic(dst, src.read_bytes())

@@ -1,17 +1,19 @@
 """Many records: in-process, a local process pool, or a Dask distributed cluster.
 
-:func:`run_records` applies one job, :func:`pipeline.run.process_record` by default, to
-every record spec and returns the results **in the order of the specs**, whatever order
-they finish in. The job never raises for a bad record (the failure travels in the
-result). If the job raises anyway, that record comes back failed with the exception as
-its one-line reason (:func:`crashed`); if a pool worker dies, the pool is broken and the
-records not finished by then come back failed the same way: the batch always completes.
+:func:`run_records` applies one job (``pipeline run`` passes
+:func:`pipeline.run.process_record`) to every record spec and returns the results **in the
+order of the specs**, whatever order they finish in. The job never raises for a bad record
+(the failure travels in the result). If the job raises anyway, that record comes back
+failed with the exception as its one-line reason (:func:`crashed`); if a pool worker dies,
+the pool is broken and the records not finished by then come back failed the same way: the
+batch always completes.
 
 * ``workers == 1`` (or a single record): a plain loop in this process.
 * ``workers > 1`` (default: one per core, at most one per record): a
   :class:`concurrent.futures.ProcessPoolExecutor` whose workers start from a clean
   ``forkserver`` process (``spawn`` where there is none), never by forking this possibly
-  threaded process, each with one BLAS/OpenMP thread (:func:`single_threaded_workers`).
+  threaded process; each worker limits the native BLAS/OpenMP pools to one thread
+  (threadpoolctl, :func:`limit_native_threads`), as the in-process loop does.
   The specs and the config are small frozen, picklable values.
 * ``executor="dask"``: ``dask.distributed.Client(scheduler).map`` of the same job (the
   optional ``dask`` extra; the workers need ``pipeline`` installed). ``scheduler=None``
@@ -33,6 +35,7 @@ from contextlib import AbstractContextManager, contextmanager
 from typing import Any
 
 from .errors import UserError
+from .results import RecordResult
 
 EXECUTORS = ("local", "dask")
 DASK_HINT = "install the dask extra: pip install .[dask]"
@@ -40,16 +43,15 @@ DASK_HINT = "install the dask extra: pip install .[dask]"
 Job = Callable[[Any, Any], Any]
 
 
-def run_records(specs: Sequence, cfg, *, workers: int | None = None,
+def run_records(specs: Sequence, cfg, job: Job, *, workers: int | None = None,
                 executor: str = "local", scheduler: str | None = None,
-                progress: bool | None = None, job: Job | None = None) -> list:
+                progress: bool | None = None) -> list:
     """``[job(spec, cfg) for spec in specs]``, computed in parallel (module docstring).
 
-    ``job`` defaults to :func:`pipeline.run.process_record`; it must be a module-level
-    function (it is pickled by name). Raises :class:`UserError` for a bad ``executor``,
-    ``workers`` < 1, a missing Dask installation or an unreachable scheduler.
+    ``job`` must be a module-level function (it is pickled by name). Raises
+    :class:`UserError` for a bad ``executor``, ``workers`` < 1, a missing Dask installation
+    or an unreachable scheduler.
     """
-    job = job or _default_job()
     if executor not in EXECUTORS:
         raise UserError(f"unknown executor {executor!r}; expected one of: "
                         + ", ".join(EXECUTORS))
@@ -66,49 +68,59 @@ def run_records(specs: Sequence, cfg, *, workers: int | None = None,
         return _run_pool(specs, cfg, job, n, tracker)
 
 
-def _default_job() -> Job:
-    from .run import process_record
-
-    return process_record
-
-
 def resolve_workers(workers: int | None, n_records: int) -> int:
     """Processes to use: ``workers`` (default: the cores), never more than the records."""
     if workers is not None and workers < 1:
-        raise UserError(f"--workers must be at least 1, got {workers}")
+        raise UserError(f"workers must be at least 1, got {workers}")
     wanted = workers if workers is not None else (os.cpu_count() or 1)
     return max(1, min(wanted, n_records))
 
 
-def crashed(spec, exc: BaseException):
+def crashed(spec, exc: BaseException) -> RecordResult:
     """The failed result of a record whose job raised or whose worker died."""
-    from .run import RecordResult, RecordSpec
-
     where = getattr(spec, "path", None) or getattr(spec, "name", None) or str(spec)
     reason = " ".join(f"{where}: processing crashed ({type(exc).__name__}: {exc})".split())
-    if isinstance(spec, RecordSpec):
-        return RecordResult(spec, error=reason)
-    return {"name": getattr(spec, "name", str(spec)), "status": "failed", "error": reason}
+    return RecordResult(name=getattr(spec, "name", str(spec)), source=str(where), error=reason)
 
 
 def is_failure(result) -> bool:
-    """True for a failed record result (a ``RecordResult`` or its dict form)."""
-    if isinstance(result, dict):
-        return result.get("status") != "ok"
+    """True for a failed record result."""
     return not getattr(result, "ok", True)
+
+
+@contextmanager
+def limit_native_threads() -> Iterator[None]:
+    """One BLAS/OpenMP thread while the block runs (threadpoolctl).
+
+    Many tiny least-squares problems: native thread pools cost more than they save
+    (measured: a single process ran 2.7x slower with OpenBLAS threads on 2 cores,
+    BENCHMARKS.md) and N pool workers each with a pool oversubscribe the cores.
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        yield
+
+
+def _worker_init() -> None:
+    """Pool worker start-up: one native thread for the worker's life."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)
 
 
 # -- executors ---------------------------------------------------------------------------
 
 def _run_inline(specs: list, cfg, job: Job, tracker: Tracker) -> list:
     out = []
-    for spec in specs:
-        try:
-            result = job(spec, cfg)
-        except Exception as exc:  # the job's contract is broken; keep the batch going
-            result = crashed(spec, exc)
-        tracker.done(result)
-        out.append(result)
+    with limit_native_threads():
+        for spec in specs:
+            try:
+                result = job(spec, cfg)
+            except Exception as exc:  # the job's contract is broken; keep the batch going
+                result = crashed(spec, exc)
+            tracker.done(result)
+            out.append(result)
     return out
 
 
@@ -123,33 +135,8 @@ def pool_context() -> multiprocessing.context.BaseContext:
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["pipeline.run"])
+    ctx.set_forkserver_preload(["pipeline.run", "pipeline.report.build"])
     return ctx
-
-
-#: Native thread pools limited to one thread in pool workers (unless the user set them).
-THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
-                    "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
-
-
-@contextmanager
-def single_threaded_workers() -> Iterator[None]:
-    """Processes started inside this block get one native (BLAS/OpenMP) thread each.
-
-    N workers each spinning up a BLAS thread pool oversubscribe the cores; on the tiny
-    least-squares problems of the methods OpenBLAS threads cost more than they save
-    (measured: a single process runs twice as fast with ``OPENBLAS_NUM_THREADS=1``).
-    The variables are set in this process's environment while the workers (or the fork
-    server they come from) start, and restored afterwards; values the user set are kept.
-    """
-    added = [k for k in THREAD_VARIABLES if k not in os.environ]
-    for k in added:
-        os.environ[k] = "1"
-    try:
-        yield
-    finally:
-        for k in added:
-            os.environ.pop(k, None)
 
 
 def _run_pool(specs: list, cfg, job: Job, n: int, tracker: Tracker) -> list:
@@ -161,7 +148,8 @@ def _run_pool(specs: list, cfg, job: Job, n: int, tracker: Tracker) -> list:
     pool has already claimed. Results are the same either way (pure per-record jobs).
     """
     out: list = [None] * len(specs)
-    with ProcessPoolExecutor(max_workers=n, mp_context=pool_context()) as pool:
+    with ProcessPoolExecutor(max_workers=n, mp_context=pool_context(),
+                             initializer=_worker_init) as pool:
         futures: dict[Future, int] = {pool.submit(job, spec, cfg): i
                                       for i, spec in enumerate(specs)}
         stolen = set()
@@ -189,7 +177,8 @@ def parallel_map(workers: int | None, n_items: int, min_items: int = 8):
     if n == 1 or n_items < min_items:
         yield map
         return
-    with ProcessPoolExecutor(max_workers=n, mp_context=pool_context()) as pool:
+    with ProcessPoolExecutor(max_workers=n, mp_context=pool_context(),
+                             initializer=_worker_init) as pool:
         yield lambda f, *its: pool.map(f, *its, chunksize=max(1, n_items // (4 * n)))
 
 
@@ -198,7 +187,7 @@ def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracke
         from distributed import Client
         from distributed import as_completed as dask_completed
     except ImportError:
-        raise UserError(f"--executor dask needs dask.distributed; {DASK_HINT}") from None
+        raise UserError(f"the dask executor needs dask.distributed; {DASK_HINT}") from None
     try:
         client = Client(scheduler, timeout="20s") if scheduler else Client()
     except (OSError, TimeoutError, ValueError) as exc:

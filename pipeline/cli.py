@@ -1,14 +1,14 @@
-"""The ``pipeline`` command (Typer). Thin: parse, call the library, map errors to exit codes.
+"""The ``pipeline`` command (Typer). Thin: parse, call the library, print.
 
-Exit codes (DESIGN.md): 0 done; 1 regression against a baseline; 2 bad input or config (one
-line on stderr, no traceback); 3 a batch in which some records failed.
+One error handler (:func:`handled`) turns a :class:`~pipeline.errors.UserError` into one
+line on stderr and :attr:`ExitCode.USER_ERROR`; the exit codes are
+:class:`~pipeline.errors.ExitCode` (DESIGN.md).
 """
 
 from __future__ import annotations
 
-import json
+import functools
 import sys
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated
 
@@ -16,7 +16,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import UserError
+from .errors import ExitCode, UserError
+from .version import __version__
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Batch system identification from step and impulse tests.")
@@ -29,18 +30,37 @@ out = Console(highlight=False, soft_wrap=True)
 err = Console(stderr=True, highlight=False, soft_wrap=True)
 
 
-def fail(exc: UserError) -> typer.Exit:
-    err.print(f"error: {exc.message}", markup=False)
-    return typer.Exit(exc.exit_code)
+def handled(command):
+    """The one error handler: a user error is one stderr line and exit code 2."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except UserError as exc:
+            err.print(f"error: {exc.message}", markup=False)
+            raise typer.Exit(ExitCode.USER_ERROR) from None
+
+    return wrapper
 
 
-def now_iso() -> str:
-    return datetime.now(UTC).isoformat(timespec="seconds")
+def _version(value: bool) -> None:
+    if value:
+        out.print(f"pipeline {__version__}", markup=False)
+        raise typer.Exit(ExitCode.OK)
+
+
+@app.callback()
+def main(version: Annotated[bool, typer.Option(
+        "--version", callback=_version, is_eager=True, help="print the version and exit")]
+        = False) -> None:
+    """Batch system identification from step and impulse tests."""
 
 
 # -- run ---------------------------------------------------------------------------------
 
 @app.command()
+@handled
 def run(
     config: Annotated[Path, typer.Argument(help="YAML run configuration")],
     out_dir: Annotated[Path | None, typer.Option("--out", help="output folder")] = None,
@@ -61,34 +81,39 @@ def run(
         help="per-parameter tolerance, e.g. --tol T=0.1 (repeatable)")] = None,
 ) -> None:
     """Identify and validate every record a config names; write results.json and reports."""
-    from .runner import execute
+    from .baseline import Tolerances
+    from .run import run_config
 
-    try:
-        outcome = execute(config, out_dir=out_dir, workers=workers, executor=executor,
-                          scheduler=scheduler, baseline=baseline, junit=junit, history=history,
-                          progress=progress, created=now_iso(), param_tol=param_tol,
-                          mse_tol=mse_tol, param_tols=_tolerances(tol or []))
-    except UserError as exc:
-        raise fail(exc) from None
-    for line in outcome.failures:
+    tolerances = Tolerances(param_tol=param_tol, mse_tol=mse_tol,
+                            param_tols=_tolerances(tol or []))
+    outcome = run_config(config, out_dir=out_dir, workers=workers, executor=executor,
+                         scheduler=scheduler, baseline=baseline, junit=junit, history=history,
+                         progress=progress, tolerances=tolerances)
+    for line in outcome.run.failures:
         err.print(f"error: {line}", markup=False)
     for line in outcome.messages:
         out.print(line, markup=False)
     code = outcome.exit_code
-    if code == 3 and allow_failures:
-        code = 0
+    if code == ExitCode.SOME_FAILED and allow_failures:
+        code = ExitCode.OK
     raise typer.Exit(code)
 
 
 def _tolerances(items: list[str]) -> dict[str, float]:
-    out = {}
+    from .models import PARAMETERS
+
+    out_ = {}
     for item in items:
         name, _, value = item.partition("=")
+        name = name.strip()
         try:
-            out[name.strip()] = float(value)
+            out_[name] = float(value)
         except ValueError:
             raise UserError(f"--tol {item!r}: expected PARAMETER=FRACTION, e.g. T=0.1") from None
-    return out
+        if name not in PARAMETERS:
+            raise UserError(f"--tol {item!r}: unknown parameter {name!r}; expected one of "
+                            + ", ".join(PARAMETERS))
+    return out_
 
 
 # -- identify / segment ------------------------------------------------------------------
@@ -119,16 +144,31 @@ def _data_config(file: Path, input: str, output: str, time: str | None,
         raise UserError(f"{opt}: {err0['msg']} (got {err0.get('input')!r})") from None
 
 
-def _events_arg(text: str) -> list[int] | str:
-    if text == "all":
+def _list_arg(values: list[str] | None) -> list[str]:
+    """``--x a,b`` and ``--x a --x b`` alike."""
+    return [v.strip() for item in values or [] for v in item.split(",") if v.strip()]
+
+
+def _events_arg(text: str) -> tuple[int, ...] | str:
+    if text.strip() == "all":
         return "all"
     try:
-        events = [int(x) for x in text.split(",") if x.strip()]
+        events = tuple(int(x) for x in _list_arg([text]))
     except ValueError:
-        events = []
+        events = ()
     if not events or min(events) < 0:
         raise UserError(f"--events {text!r}: expected 'all' or indices >= 0 like 0,2")
     return events
+
+
+def _methods_arg(values: list[str] | None) -> tuple[str, ...] | str:
+    from .methods import REGISTRY
+
+    ids = _list_arg(values)
+    unknown = [m for m in ids if m != "all" and m not in REGISTRY]
+    if unknown:
+        raise UserError(f"--method {unknown[0]!r}: unknown; see `pipeline methods`")
+    return "all" if not ids or "all" in ids else tuple(ids)
 
 
 InputOpt = Annotated[str, typer.Option("--input", help="input column (MCAP: /topic:field)")]
@@ -140,11 +180,13 @@ U0Opt = Annotated[float | None, typer.Option("--initial-input",
 
 
 @app.command()
+@handled
 def identify(
     file: Annotated[Path, typer.Argument(help="CSV, .dat or .mcap log")],
     input: InputOpt, output: OutputOpt, time: TimeOpt = None, sample_time: TsOpt = None,
     initial_input: U0Opt = None,
-    method: Annotated[list[str] | None, typer.Option("--method", help="method id or 'all'")]
+    method: Annotated[list[str] | None, typer.Option(
+        "--method", help="method ids, 'all' (default); repeat or separate with commas")]
     = None,
     events: Annotated[str, typer.Option(help="identification events: 'all' or 0,2")] = "0",
     as_json: Annotated[bool, typer.Option("--json", help="print results JSON to stdout")]
@@ -153,41 +195,27 @@ def identify(
     = None,
 ) -> None:
     """Identify models from one log and print them ranked (or as JSON)."""
-    from .io import load_record
-    from .methods import REGISTRY
-    from .report.build import write_run
-    from .run import RecordSpec, analyse, results_document
+    from .analyse import AnalysisOptions
+    from .results import results_json
+    from .run import identify_file
 
-    try:
-        unknown = [m for m in method or [] if m != "all" and m not in REGISTRY]
-        if unknown:
-            raise UserError(f"--method {unknown[0]!r}: unknown; see `pipeline methods`")
-        ids = None if not method or "all" in method else method
-        data = _data_config(file, input, output, time, sample_time, initial_input)
-        record = load_record(file, data)
-        res = analyse(record, events_for_identification=_events_arg(events), methods=ids,
-                      spec=RecordSpec(name=record.name, path=str(file)))
-    except UserError as exc:
-        raise fail(exc) from None
-    if res.error:
-        raise fail(UserError(res.error))
-    doc = results_document([res], f"identify {file}", now_iso())
-    if out_dir is not None:
-        write_run(out_dir, [res], doc, title=f"Identification of {record.name}")
+    options = AnalysisOptions(events=_events_arg(events), methods=_methods_arg(method))
+    data = _data_config(file, input, output, time, sample_time, initial_input)
+    run_ = identify_file(file, data, options, out_dir=out_dir)
     if as_json:
-        sys.stdout.write(json.dumps(doc, indent=1) + "\n")
+        sys.stdout.write(results_json(run_.to_doc()))
         return
-    _print_ranking(res)
+    _print_ranking(run_.records[0])
     if out_dir is not None:
         out.print(f"reports written to {out_dir}/ (report.html, report.md, results.json)")
 
 
 def _print_ranking(res) -> None:
-    from .report.build import fmt, params_text
+    from .report.tables import fmt, params_text
 
-    for i in sorted(i for i, r in res.roles.items() if r == "identification"):
-        has_val = any(r == "validation" for r in res.roles.values())
-        tab = Table(title=f"{res.spec.name}: event {i}, ranked by "
+    has_val = bool(res.validation_events)
+    for i in res.identification_events:
+        tab = Table(title=f"{res.name}: event {i}, ranked by "
                     f"{'validation MSE' if has_val else 'ISE'}")
         tab.add_column("#")
         tab.add_column("method", no_wrap=True)
@@ -207,6 +235,7 @@ def _print_ranking(res) -> None:
 
 
 @app.command()
+@handled
 def segment(
     file: Annotated[Path, typer.Argument(help="CSV, .dat or .mcap log")],
     input: InputOpt, output: OutputOpt, time: TimeOpt = None, sample_time: TsOpt = None,
@@ -214,20 +243,20 @@ def segment(
     as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
 ) -> None:
     """Print the step and impulse events found in a log."""
+    import json
+
     from .io import load_record
-    from .report.build import fmt
-    from .run import finite_or_none
+    from .report.tables import fmt
+    from .results import event_doc
     from .segment import segment as find_events
 
-    try:
-        record = load_record(file, _data_config(file, input, output, time, sample_time,
-                                                initial_input))
-    except UserError as exc:
-        raise fail(exc) from None
+    record = load_record(file, _data_config(file, input, output, time, sample_time,
+                                            initial_input))
     events = find_events(record)
     if as_json:
-        doc = finite_or_none([e.to_dict() for e in events])
-        sys.stdout.write(json.dumps(doc, indent=1) + "\n")
+        docs = [event_doc(e, "unused").model_dump(mode="json", exclude={"role"})
+                for e in events]
+        sys.stdout.write(json.dumps(docs, indent=1) + "\n")
         return
     tab = Table(title=f"{record.name}: {len(events)} event(s)")
     for col in ("#", "kind", "t0", "t_end", "u0", "u_ss / area", "y0", "y_ss", "settled"):
@@ -241,40 +270,44 @@ def segment(
 
 @app.command()
 def methods() -> None:
-    """List the identification methods: id, event kind, model structure, source."""
+    """List the identification methods: id, event kind, model structures, reference."""
     from .methods import REGISTRY
 
     tab = Table(title="Methods")
     tab.add_column("id", no_wrap=True)
-    for col in ("event", "model", "order", "source"):
+    for col in ("event", "structures", "title", "reference"):
         tab.add_column(col)
     for m in REGISTRY.values():
-        tab.add_row(m.id, m.event, m.structure, m.order, m.source)
+        tab.add_row(m.id, m.event, ", ".join(m.structures), m.title, m.citation)
     out.print(tab)
 
 
 @app.command()
+def schema() -> None:
+    """Print the JSON Schema of results.json."""
+    from .schema import json_schema_text
+
+    sys.stdout.write(json_schema_text())
+
+
+@app.command()
+@handled
 def inspect(file: Annotated[Path, typer.Argument(help="an .mcap log")]) -> None:
     """Topics, schemas, encodings, counts, time span and numeric fields of an MCAP log."""
-    try:
-        from .io.mcap import format_inspect, inspect_mcap
+    from .io.mcap import format_inspect, inspect_mcap
 
-        out.print(format_inspect(inspect_mcap(file)))
-    except UserError as exc:
-        raise fail(exc) from None
+    out.print(format_inspect(inspect_mcap(file)))
 
 
 # -- datasets ----------------------------------------------------------------------------
 
 @datasets_app.command("list")
+@handled
 def datasets_list() -> None:
     """The registered public datasets."""
     from .datasets import load_registry
 
-    try:
-        reg = load_registry()
-    except UserError as exc:
-        raise fail(exc) from None
+    reg = load_registry()
     tab = Table(title="Datasets")
     tab.add_column("name", no_wrap=True)
     for col in ("title", "format", "signals"):
@@ -286,18 +319,16 @@ def datasets_list() -> None:
 
 
 @datasets_app.command("fetch")
+@handled
 def datasets_fetch(name: Annotated[str, typer.Argument(help="dataset name")]) -> None:
     """Fetch a dataset into the local cache (sha256 checked)."""
     from .datasets import fetch
 
-    try:
-        path = fetch(name)
-    except UserError as exc:
-        raise fail(exc) from None
-    out.print(str(path), markup=False)
+    out.print(str(fetch(name)), markup=False)
 
 
 @datasets_app.command("synth")
+@handled
 def datasets_synth(
     folder: Annotated[Path, typer.Argument(help="where to write the logs")],
     n: Annotated[int, typer.Option("--n", help="number of logs")] = 20,
@@ -317,6 +348,7 @@ def datasets_synth(
 # -- baseline ----------------------------------------------------------------------------
 
 @baseline_app.command("accept")
+@handled
 def baseline_accept(
     results: Annotated[Path, typer.Argument(help="a run's results.json")],
     to: Annotated[Path, typer.Option("--to", help="baseline file")] = Path(
@@ -325,12 +357,5 @@ def baseline_accept(
     """Promote a run's results.json to be the baseline."""
     from .baseline import accept
 
-    try:
-        accept(results, to)
-    except UserError as exc:
-        raise fail(exc) from None
+    accept(results, to)
     out.print(f"baseline {to} <- {results}", markup=False)
-
-
-def main() -> None:  # pragma: no cover
-    app()

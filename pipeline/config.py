@@ -104,10 +104,9 @@ class RunConfig(_Strict):
             )
         return v
 
-    def method_ids(self) -> list[str]:
-        from .methods import method_ids
-
-        return method_ids() if self.methods == "all" else list(self.methods)
+    def method_ids(self) -> list[str] | str:
+        """``"all"`` or the listed ids (:func:`pipeline.methods.select_methods` decides)."""
+        return self.methods if self.methods == "all" else list(self.methods)
 
 
 def load_config(path: str | Path) -> RunConfig:

@@ -1,14 +1,25 @@
-"""Exceptions the library raises; the CLI maps them to exit codes (DESIGN.md).
+"""Exceptions the library raises and the exit codes the CLI maps them to (DESIGN.md).
 
 The library never calls ``sys.exit``; user errors carry one line that names the
 file, the line or the config key, and what was expected.
 """
 
+from enum import IntEnum
+
+
+class ExitCode(IntEnum):
+    """The exit-code contract of the ``pipeline`` command (one place for it)."""
+
+    OK = 0  #: done
+    REGRESSION = 1  #: a model or its validation error drifted past a baseline's tolerance
+    USER_ERROR = 2  #: bad input or config (one line on stderr), or every record failed
+    SOME_FAILED = 3  #: a batch in which some records failed (the report lists them)
+
 
 class UserError(Exception):
     """Bad input or configuration: exit code 2, one line on stderr, no traceback."""
 
-    exit_code = 2
+    exit_code = ExitCode.USER_ERROR
 
     def __init__(self, message: str) -> None:
         super().__init__(message)

@@ -1,4 +1,4 @@
-"""``Fit``: the outcome of one method on one event (DESIGN.md "Core types")."""
+"""``Fit`` and ``Flag``: the outcome of one method on one event (DESIGN.md "Core types")."""
 
 from __future__ import annotations
 
@@ -6,42 +6,43 @@ from dataclasses import dataclass, field
 
 from .models import ProcessModel
 
+#: Fit statuses: a model, no model with the reason, or a method bug (the record goes on).
+STATUSES = ("ok", "not_applicable", "failed")
+#: Verdicts of a fit that has a model (DESIGN.md "Validation and grading").
+VERDICTS = ("ok", "warning", "unreliable")
+
+
+@dataclass(frozen=True)
+class Flag:
+    """One reason behind a verdict: a stable ``code``, a plain-words ``message`` and the
+    numbers it was decided on."""
+
+    code: str
+    message: str
+    values: dict[str, float | str | None] = field(default_factory=dict)
+    severity: str = "warning"  # "warning" | "unreliable": the verdict it forces at least
+
 
 @dataclass(frozen=True)
 class Fit:
+    """One method on one event: ``status`` and, when ok, the model with its metrics.
+
+    ``ci95`` maps parameter names to 95 % intervals (refined models); ``verdict`` and
+    ``flags`` are set by grading (None / empty until then); ``diagnostics`` are the points
+    the method read (t63, peaks, areas ...), in absolute record time.
+    """
+
     method: str
     event: int
-    status: str  # "ok" | "not_applicable" | "failed"
+    status: str
     reason: str | None = None
     model: ProcessModel | None = None
     metrics: dict[str, float] = field(default_factory=dict)
     diagnostics: dict = field(default_factory=dict)
+    ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
+    verdict: str | None = None
+    flags: tuple[Flag, ...] = ()
 
     @property
     def ok(self) -> bool:
         return self.status == "ok"
-
-    def to_dict(self) -> dict:
-        return {
-            "method": self.method, "event": self.event, "status": self.status,
-            "reason": self.reason,
-            "structure": self.model.structure if self.model else None,
-            "params": dict(self.model.params) if self.model else None,
-            "transfer_function": self.model.to_dict() if self.model else None,
-            "metrics": dict(self.metrics), "diagnostics": _plain(self.diagnostics),
-        }
-
-
-def _plain(obj):
-    """numpy scalars and arrays to JSON-friendly Python values."""
-    import numpy as np
-
-    if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return obj

@@ -1,9 +1,10 @@
 """Run history: one parquet file that grows by one row per record, event and method per run.
 
 Columns (one schema, :data:`SCHEMA`): ``time`` (the run, UTC), ``record``, ``event``,
-``method``, ``status``, ``structure``, ``best`` (the record's best fit), each parameter
-``K, T, T1, T2, n, zeta, wn, delay`` (null when the model has no such parameter),
-``mse_validation, mse_identification, ise, fit_percent`` (null when not computed) and
+``method``, ``status``, ``structure``, ``verdict``, ``best`` (the record's ranked-best
+fit), ``recommended`` (the record's recommended model), one column per parameter of
+:data:`pipeline.models.PARAMETERS` (null when the model has no such parameter), one per
+metric of :class:`pipeline.schema.MetricsDoc` (null when not computed) and
 ``pipeline_version``. A record that failed has one row with null event and method and
 status ``failed``.
 
@@ -24,9 +25,11 @@ import polars as pl
 
 from .errors import UserError
 from .files import write_atomic
+from .models import PARAMETERS
+from .schema import MetricsDoc, ResultsDoc
 
-PARAMS = ("K", "T", "T1", "T2", "n", "zeta", "wn", "delay")
-METRICS = ("mse_validation", "mse_identification", "ise", "fit_percent")
+PARAMS = tuple(PARAMETERS)
+METRICS = tuple(MetricsDoc.model_fields)
 
 SCHEMA: dict[str, pl.DataType] = {
     "time": pl.Datetime("us", "UTC"),
@@ -35,7 +38,9 @@ SCHEMA: dict[str, pl.DataType] = {
     "method": pl.String(),
     "status": pl.String(),
     "structure": pl.String(),
+    "verdict": pl.String(),
     "best": pl.Boolean(),
+    "recommended": pl.Boolean(),
     **{p: pl.Float64() for p in PARAMS},
     **{m: pl.Float64() for m in METRICS},
     "pipeline_version": pl.String(),
@@ -51,25 +56,25 @@ def as_utc(run_time: datetime | None) -> datetime:
     return run_time.astimezone(UTC)
 
 
-def history_rows(results: dict, run_time: datetime | None) -> pl.DataFrame:
+def history_rows(results: ResultsDoc, run_time: datetime | None) -> pl.DataFrame:
     """The rows one run adds: one per record, event and method (pure)."""
     t = as_utc(run_time)
-    version = results.get("pipeline_version")
     rows = []
-    for rec in results.get("records", []):
-        base = {"time": t, "record": str(rec["name"]), "pipeline_version": version}
-        if rec.get("status", "ok") != "ok":
-            rows.append({**base, "status": rec.get("status", "failed")})
+    for rec in results.records:
+        base = {"time": t, "record": rec.name, "pipeline_version": results.pipeline_version}
+        if rec.status != "ok":
+            rows.append({**base, "status": rec.status})
             continue
-        best = rec.get("best") or {}
-        for fit in rec.get("fits", []):
-            params = fit.get("params") or {}
-            metrics = fit.get("metrics") or {}
+        for fit in rec.fits:
+            params = fit.params or {}
+            metrics = fit.metrics.model_dump()
+            key = (fit.method, fit.event)
             rows.append({
-                **base, "event": int(fit["event"]), "method": str(fit["method"]),
-                "status": fit.get("status", "ok"), "structure": fit.get("structure"),
-                "best": (best.get("method") == fit["method"]
-                         and best.get("event") == fit["event"]),
+                **base, "event": fit.event, "method": fit.method, "status": fit.status,
+                "structure": fit.structure, "verdict": fit.verdict,
+                "best": rec.best is not None and key == (rec.best.method, rec.best.event),
+                "recommended": rec.recommended is not None
+                and key == (rec.recommended.method, rec.recommended.event),
                 **{p: _number(params.get(p)) for p in PARAMS},
                 **{m: _number(metrics.get(m)) for m in METRICS},
             })
@@ -82,9 +87,9 @@ def _number(v) -> float | None:
     return None
 
 
-def append_history(path: str | os.PathLike, results: dict,
+def append_history(path: str | os.PathLike, results: ResultsDoc,
                    run_time: datetime | None = None) -> pl.DataFrame:
-    """Append the rows of one run (``results``: a results.json object) to the parquet file
+    """Append the rows of one run (``results``: a results document) to the parquet file
     at ``path`` (created with its folder when absent); returns the whole history."""
     p = Path(path)
     new = history_rows(results, run_time)

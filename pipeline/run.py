@@ -1,31 +1,31 @@
-"""Orchestration of one config: resolve records -> load -> segment -> identify -> validate.
+"""The one orchestration path: which records a config names, load -> analyse each, and a
+run's outputs (results.json, reports, baseline gate, history, JUnit).
 
-:func:`process_record` is the per-record job the batch layer ships to processes or a Dask
-cluster: it takes a picklable :class:`RecordSpec` and the :class:`RunConfig` and never
-raises for a bad record; the failure travels in the result.
+* :func:`run_config` - ``pipeline run``: a config from YAML to reports;
+* :func:`identify_file` - ``pipeline identify``: one file with data and analysis options;
+* :func:`process_record` - the per-record job the batch layer ships to processes or a
+  Dask cluster: a picklable :class:`RecordSpec` and the :class:`~pipeline.config.RunConfig`
+  in, a :class:`~pipeline.results.RecordResult` out; it never raises for a bad record
+  (the failure travels in the result).
+
+Both commands end in :func:`pipeline.analyse.analyse` with options built by
+:func:`analysis_options`, so they give the same fits for the same file.
 """
 
 from __future__ import annotations
 
 import glob
-import math
 import os
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 
-from . import __version__
-from .config import DataConfig, RunConfig
-from .errors import UserError
-from .events import Event, EventData
-from .fit import Fit
+from .analyse import AnalysisOptions, analyse
+from .config import DataConfig, RunConfig, load_config
+from .errors import ExitCode, UserError
 from .io import FORMATS, load_record
-from .methods import REGISTRY, identify
-from .record import Record
-from .segment import SegmentOptions, segment
-from .validate import score
-
-#: An event window with fewer samples after t0 gives no model (never a silent bad one).
-MIN_WINDOW_SAMPLES = 10
+from .results import RecordResult, RunResult
+from .segment import SegmentOptions
 
 
 @dataclass(frozen=True)
@@ -38,55 +38,31 @@ class RecordSpec:
 
 
 @dataclass(frozen=True)
-class RecordResult:
-    spec: RecordSpec
-    record: Record | None = None
-    events: list[Event] = field(default_factory=list)
-    roles: dict[int, str] = field(default_factory=dict)
-    fits: list[Fit] = field(default_factory=list)
-    error: str | None = None
+class Outcome:
+    """What a run did: its exit code (:class:`~pipeline.errors.ExitCode`), where the
+    reports are, the results and the lines to tell the user."""
 
-    @property
-    def ok(self) -> bool:
-        return self.error is None
-
-    def ranking(self, event: int | None = None) -> list[Fit]:
-        """ok fits ranked by validation MSE (ISE when there is no validation data)."""
-        fits = [f for f in self.fits if f.ok and (event is None or f.event == event)]
-        return sorted(fits, key=rank_key)
-
-    @property
-    def best(self) -> Fit | None:
-        ident = [i for i, r in sorted(self.roles.items()) if r == "identification"]
-        ranked = self.ranking(ident[0] if ident else None)
-        return ranked[0] if ranked else None
-
-    def to_dict(self) -> dict:
-        """The results.json form of this record (DESIGN.md "Results contract")."""
-        rec = self.record
-        best = self.best
-        return {
-            "name": self.spec.name,
-            "source": rec.source if rec else self.spec.path,
-            "status": "ok" if self.ok else "failed",
-            "error": self.error,
-            "n_samples": rec.n_samples if rec else 0,
-            "sample_time": rec.sample_time if rec else None,
-            "units": rec.units if rec else {},
-            "notes": list(rec.notes) if rec else [],
-            "events": [{**e.to_dict(), "role": self.roles.get(e.index, "unused")}
-                       for e in self.events],
-            "fits": [f.to_dict() for f in self.fits],
-            "best": {"method": best.method, "event": best.event} if best else None,
-            "errors": [self.error] if self.error else [],
-        }
+    exit_code: int
+    out_dir: Path | None
+    run: RunResult
+    messages: list[str] = field(default_factory=list)
 
 
-def rank_key(f: Fit) -> tuple[float, float]:
-    v = f.metrics.get("mse_validation", math.nan)
-    i = f.metrics.get("ise", math.nan)
-    primary = v if math.isfinite(v) else math.inf
-    return (primary, i if math.isfinite(i) else math.inf)
+def now_iso() -> str:
+    """The run's creation time, UTC, to the microsecond (two runs never share it)."""
+    return datetime.now(UTC).isoformat(timespec="microseconds")
+
+
+# -- options -----------------------------------------------------------------------------
+
+def analysis_options(cfg: RunConfig) -> AnalysisOptions:
+    """The analysis options of a config (the ``identify`` command builds the same)."""
+    events = cfg.identification.events
+    return AnalysisOptions(
+        segmentation=SegmentOptions(**cfg.segmentation.model_dump()),
+        events=events if events == "all" else tuple(events),
+        methods=cfg.methods if cfg.methods == "all" else tuple(cfg.methods),
+    )
 
 
 # -- resolving what to process -----------------------------------------------------------
@@ -151,89 +127,100 @@ def effective_data(cfg: RunConfig, spec: RecordSpec) -> DataConfig:
     return d.model_copy(update={k: v for k, v in fill.items() if getattr(d, k) is None})
 
 
-def segment_options(cfg: RunConfig) -> SegmentOptions:
-    s = cfg.segmentation
-    return SegmentOptions(min_step=s.min_step, rel_min_step=s.rel_min_step,
-                          tail_fraction=s.tail_fraction, head_samples=s.head_samples,
-                          pulse_fraction=s.pulse_fraction,
-                          settle_time_constants=s.settle_time_constants,
-                          settle_drift=s.settle_drift)
-
-
-# -- the analysis ------------------------------------------------------------------------
-
-def analyse(record: Record, *, events_for_identification: list[int] | str = (0,),
-            methods: list[str] | None = None, options: SegmentOptions | None = None,
-            spec: RecordSpec | None = None) -> RecordResult:
-    """Segment, identify on the chosen events, validate on the others (pure)."""
-    spec = spec or RecordSpec(name=record.name, path=record.source)
-    events = segment(record, options)
-    if not events:
-        return RecordResult(spec, record, error=f"{record.source}: no step or impulse event "
-                            f"found in the input {record.input_name!r}")
-    ident = (list(range(len(events))) if events_for_identification == "all"
-             else sorted(set(events_for_identification)))
-    missing = [i for i in ident if not 0 <= i < len(events)]
-    if not ident:
-        return RecordResult(spec, record, events, error=(
-            f"{record.source}: no identification event was chosen"))
-    if missing:
-        return RecordResult(spec, record, events, error=(
-            f"{record.source}: identification event {missing[0]} does not exist; the record "
-            f"has {len(events)} event(s) (0..{len(events) - 1})"))
-    validation = [e.index for e in events if e.index not in ident]
-    roles = {e.index: ("identification" if e.index in ident else "validation") for e in events}
-    method_ids = list(REGISTRY) if methods is None else list(methods)
-    fits: list[Fit] = []
-    for i in ident:
-        ev = events[i]
-        data = EventData.from_event(record, ev)
-        short = ev.i_end - ev.i_start < MIN_WINDOW_SAMPLES
-        for mid in method_ids:
-            if REGISTRY[mid].event != ev.kind and methods is None:
-                continue  # all methods: only those for this kind of event are listed
-            if short:
-                fits.append(Fit(mid, i, "not_applicable", f"window too short: "
-                                f"{ev.i_end - ev.i_start} samples after t0, at least "
-                                f"{MIN_WINDOW_SAMPLES} are needed"))
-                continue
-            fit = identify(data, mid)
-            if fit.ok:
-                fit = replace(fit, metrics=score(fit.model, record, events, ev, validation))
-            fits.append(fit)
-    return RecordResult(spec, record, events, roles, fits)
-
+# -- one record --------------------------------------------------------------------------
 
 def process_record(spec: RecordSpec, cfg: RunConfig) -> RecordResult:
-    """Load and analyse one record; a bad record comes back with ``error`` set.
-
-    ``RecordResult.to_dict()`` is the record's results.json entry.
-    """
+    """Load and analyse one record; a bad record comes back with ``error`` set."""
     try:
-        data = effective_data(cfg, spec)
-        record = load_record(Path(spec.path), data, name=spec.name)
-        return analyse(record, events_for_identification=cfg.identification.events,
-                       methods=cfg.method_ids(), options=segment_options(cfg), spec=spec)
+        record = load_record(Path(spec.path), effective_data(cfg, spec), name=spec.name)
+        return analyse(record, analysis_options(cfg), name=spec.name)
     except UserError as exc:
-        return RecordResult(spec, error=exc.message)
+        return RecordResult(name=spec.name, source=spec.path, error=exc.message)
 
 
-def results_document(results: list[RecordResult], cfg_source: str, created: str) -> dict:
-    """The whole results.json object."""
-    return finite_or_none({
-        "pipeline_version": __version__,
-        "config": cfg_source,
-        "created": created,
-        "records": [r.to_dict() for r in results],
-    })
+def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
+                  out_dir: Path | None = None, created: str | None = None) -> RunResult:
+    """``pipeline identify``: one file, analysed; reports written when ``out_dir`` is set.
+
+    A record that cannot be analysed is a :class:`UserError` (a single file has nothing
+    else to report).
+    """
+    record = load_record(path, data)
+    res = analyse(record, options)
+    if res.error:
+        raise UserError(res.error)
+    run = RunResult([res], config=f"identify {path}", created=created or now_iso())
+    if out_dir is not None:
+        from .report.build import write_run
+
+        write_run(out_dir, run, run.to_doc(), title=f"Identification of {record.name}")
+    return run
 
 
-def finite_or_none(obj):
-    """NaN and infinities become ``null``: results.json is strict JSON."""
-    if isinstance(obj, dict):
-        return {k: finite_or_none(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [finite_or_none(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
+# -- a config ----------------------------------------------------------------------------
+
+def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = None,
+               workers: int | None = None, executor: str = "local",
+               scheduler: str | None = None, baseline: Path | None = None,
+               junit: Path | None = None, history: Path | None = None,
+               progress: bool | None = None, created: str | None = None,
+               tolerances=None) -> Outcome:
+    """Run a config end to end: every record, one report, the optional gate and history.
+
+    Exit codes: 0 done, 1 a regression against ``baseline``, 3 some records failed; all
+    records failing is 2 with no report. User errors raise :class:`UserError`.
+    ``tolerances`` is a :class:`pipeline.baseline.Tolerances` (defaults when None).
+    """
+    from .batch import parallel_map, run_records
+
+    cfg = config if isinstance(config, RunConfig) else load_config(config)
+    created = created or now_iso()
+    specs = resolve_specs(cfg)
+    records = run_records(specs, cfg, process_record, workers=workers, executor=executor,
+                          scheduler=scheduler, progress=progress)
+    run = RunResult(records, config=cfg.source, created=created)
+    if len(run.failures) == len(records):
+        return Outcome(ExitCode.USER_ERROR, None, run)
+    doc = run.to_doc()
+    from .report.build import Extras, write_run
+
+    extras = Extras()
+    messages: list[str] = []
+    comparison = None
+    if baseline is not None:
+        from .baseline import Tolerances, compare
+        from .results import load_results
+
+        comparison = compare(doc, load_results(baseline), tolerances or Tolerances())
+        extras.regressions = [f.as_row() for f in comparison.regressions]
+        extras.new = [str(f) for f in comparison.new]
+        messages.append(f"{len(comparison.regressions)} regression(s) against {baseline}")
+    run_time = datetime.fromisoformat(created)
+    if history is not None:
+        import polars as pl
+
+        from .history import history_rows, load_history
+        from .report.history_plots import history_figures
+
+        rows = history_rows(doc, run_time)  # the file is appended after the report
+        past = load_history(history) if Path(history).exists() else None
+        frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
+        extras.history = history_figures(frame)
+    target = out_dir or Path(cfg.output or Path("reports") / cfg.name)
+    with parallel_map(workers if executor == "local" else 1, len(records)) as mapper:
+        write_run(target, run, doc, title=cfg.report.title or f"System identification: "
+                  f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
+                  html=cfg.report.html, plots_mode=cfg.report.plots, mapper=mapper)
+    if history is not None:  # after the report: --history may point into the output folder
+        from .history import append_history
+
+        append_history(history, doc, run_time)
+    if junit is not None:  # after the report, for the same reason
+        from .report.junit import write_junit
+
+        write_junit(junit, doc, comparison)
+    n_ok = len(records) - len(run.failures)
+    messages.insert(0, f"{n_ok} of {len(records)} record(s) identified; reports in {target}/")
+    code = (ExitCode.REGRESSION if comparison is not None and not comparison.ok
+            else ExitCode.SOME_FAILED if run.failures else ExitCode.OK)
+    return Outcome(code, target, run, messages)

@@ -17,7 +17,6 @@ from pipeline.baseline import (
     Tolerances,
     accept,
     compare,
-    load_results,
     mse_limit,
     relative_change,
     step_response_distance,
@@ -28,6 +27,7 @@ from pipeline.events import EventData
 from pipeline.methods import identify
 from pipeline.record import Record
 from pipeline.report.junit import junit_xml, write_junit
+from pipeline.results import as_doc, event_doc, fit_doc, load_results
 from pipeline.segment import event_data, segment
 from pipeline.synth_logs import LogPlan, log_record, plan_logs
 from pipeline.validate import score
@@ -57,12 +57,12 @@ def fit_record(rec: Record, methods=METHODS) -> dict:
         fit = identify(ev, method)
         if fit.ok:
             fit = replace(fit, metrics=score(fit.model, rec, events, events[0], validation))
-        fits.append(fit.to_dict())
+        fits.append(fit_doc(fit).model_dump(mode="json"))
     roles = {0: "identification", **{i: "validation" for i in validation}}
     return {
         "name": rec.name, "source": rec.source, "status": "ok", "error": None,
         "n_samples": rec.n_samples, "sample_time": rec.sample_time,
-        "events": [{**e.to_dict(), "role": roles[e.index]} for e in events],
+        "events": [event_doc(e, roles[e.index]).model_dump(mode="json") for e in events],
         "fits": fits, "best": {"method": methods[0], "event": 0}, "errors": [],
     }
 
@@ -142,7 +142,8 @@ def test_ok_to_not_applicable_is_a_regression(baseline):
     fit = identify(event_data(t, u, flat), "first_order")
     assert fit.status == "not_applicable"
     rec = current["records"][1]
-    rec["fits"] = [fit.to_dict() if f["method"] == "first_order" else f for f in rec["fits"]]
+    rec["fits"] = [fit_doc(fit).model_dump(mode="json") if f["method"] == "first_order"
+                   else f for f in rec["fits"]]
     result = compare(current, baseline)
     (f,) = result.regressions
     assert (f.record, f.event, f.method, f.kind) == ("log_001", 0, "first_order", "status")
@@ -202,20 +203,21 @@ def test_failed_and_missing_records(baseline):
     assert ("log_002", METHODS[2], "missing") in kinds
     assert {(f.record, f.method) for f in result.missing} == {("log_001", None),
                                                               ("log_002", METHODS[2])}
-    lenient = compare(current, baseline, missing_is_regression=False)
+    lenient = compare(current, baseline, Tolerances(missing_is_regression=False))
     assert {f.kind for f in lenient.regressions} == {"status"}
     # a record that was already failing is not a regression
     assert compare(current, current).ok
 
 
 def test_custom_tolerances():
-    base = {"records": [{"name": "r", "status": "ok", "events": [], "fits": [
+    base = {"pipeline_version": "0", "records": [{"name": "r", "source": "r.csv",
+                                                  "status": "ok", "events": [], "fits": [
         {"method": "m", "event": 0, "status": "ok", "structure": "first_order",
          "params": {"K": 2.0, "T": 5.0, "delay": 0.0}, "metrics": {}}]}]}
     cur = json.loads(json.dumps(base))
     cur["records"][0]["fits"][0]["params"] = {"K": 2.08, "T": 5.5, "delay": 0.5}
     assert compare(cur, base).ok  # K +4 %, T +10 %, delay 0.5 s = 10 % of T
-    strict = compare(cur, base, param_tol=0.03, param_tols={"T": 0.05})
+    strict = compare(cur, base, Tolerances(param_tol=0.03, param_tols={"T": 0.05}))
     assert {f.parameter for f in strict.regressions} == {"K", "T", "delay"}
     delay = next(f for f in strict.regressions if f.parameter == "delay")
     assert delay.change == pytest.approx(0.5 / 5.0) and delay.tolerance == pytest.approx(0.09)
@@ -240,7 +242,8 @@ def test_scales_and_distance():
 
 def test_structure_change_with_same_response_is_not_a_regression():
     def doc(structure, params):
-        return {"records": [{"name": "r", "status": "ok", "events": [], "fits": [
+        return {"pipeline_version": "0", "records": [{"name": "r", "source": "r.csv",
+                                                      "status": "ok", "events": [], "fits": [
             {"method": "strejc", "event": 0, "status": "ok", "structure": structure,
              "params": params, "metrics": {}}]}]}
 
@@ -260,7 +263,7 @@ def test_junit_names_record_method_and_parameter(baseline, tmp_path):
                           METHODS + ("second_order_overshoot",))
     current["records"].append(failed_record("log_bad", "log_bad.csv: the file is empty"))
     comparison = compare(current, baseline)
-    path = write_junit(tmp_path / "ci" / "junit.xml", current, comparison)
+    path = write_junit(tmp_path / "ci" / "junit.xml", as_doc(current), comparison)
     root = ET.parse(path).getroot()
     (suite,) = root.findall("testsuite")
     cases = suite.findall("testcase")
@@ -284,12 +287,12 @@ def test_junit_names_record_method_and_parameter(baseline, tmp_path):
 
 
 def test_junit_without_baseline_and_missing_fit(baseline):
-    root = ET.fromstring(junit_xml(baseline, None))
+    root = ET.fromstring(junit_xml(as_doc(baseline), None))
     assert root.find("testsuite").get("failures") == "0"
     current = json.loads(json.dumps(baseline))
     del current["records"][0]["fits"][0]
     comparison = compare(current, baseline)
-    root = ET.fromstring(junit_xml(current, comparison))
+    root = ET.fromstring(junit_xml(as_doc(current), comparison))
     orphan = [c for c in root.iter("testcase") if c.find("failure") is not None]
     assert [(c.get("classname"), c.get("name")) for c in orphan] == [
         ("log_000", f"event 0 / {METHODS[0]}")]
@@ -314,11 +317,11 @@ def test_accept_copies_atomically(tmp_path, baseline):
     src.write_text(json.dumps(baseline))
     dst = accept(src, tmp_path / "reports" / "baseline.json")
     assert dst.read_bytes() == src.read_bytes()
-    assert load_results(dst)["records"][0]["name"] == "log_000"
+    assert load_results(dst).records[0].name == "log_000"
     src.write_text(json.dumps({**baseline, "config": "changed"}))
     before = os.stat(dst).st_ino
     accept(src, dst)
-    assert load_results(dst)["config"] == "changed" and os.stat(dst).st_ino != before
+    assert load_results(dst).config == "changed" and os.stat(dst).st_ino != before
     assert sorted(p.name for p in dst.parent.iterdir()) == ["baseline.json"]
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 
 import pytest
@@ -10,7 +9,8 @@ import pytest
 from pipeline.batch import crashed, is_failure, pool_context, resolve_workers, run_records
 from pipeline.config import config_from_dict
 from pipeline.errors import UserError
-from pipeline.run import RecordResult, RecordSpec, process_record, resolve_specs
+from pipeline.results import RecordResult, results_json
+from pipeline.run import RecordSpec, process_record, resolve_specs
 from pipeline.synth_logs import plan_logs, write_synthetic_logs
 
 N = 6
@@ -32,32 +32,32 @@ def batch(tmp_path_factory):
 @pytest.fixture(scope="module")
 def inline(batch):
     specs, cfg = batch
-    return run_records(specs, cfg, workers=1, progress=False)
+    return run_records(specs, cfg, process_record, workers=1, progress=False)
 
 
 def assert_same(a: list[RecordResult], b: list[RecordResult]) -> None:
     """Same records in the same order, parameters equal to 1e-12, everything else equal."""
-    assert [r.spec.name for r in a] == [r.spec.name for r in b]
+    assert [r.name for r in a] == [r.name for r in b]
     for ra, rb in zip(a, b, strict=True):
-        da, db = ra.to_dict(), rb.to_dict()
-        for fa, fb in zip(da["fits"], db["fits"], strict=True):
-            assert (fa["method"], fa["status"]) == (fb["method"], fb["status"])
-            for k, v in (fa["params"] or {}).items():
-                assert fb["params"][k] == pytest.approx(v, rel=1e-12, abs=1e-12)
-        assert json.dumps(da, sort_keys=True) == json.dumps(db, sort_keys=True)
+        da, db = ra.to_doc(), rb.to_doc()
+        for fa, fb in zip(da.fits, db.fits, strict=True):
+            assert (fa.method, fa.status) == (fb.method, fb.status)
+            for k, v in (fa.params or {}).items():
+                assert fb.params[k] == pytest.approx(v, rel=1e-12, abs=1e-12)
+        assert da.model_dump_json() == db.model_dump_json()
 
 
 def test_inline_results_in_order_with_the_failure(batch, inline):
     specs, _ = batch
-    assert [r.spec for r in inline] == specs
+    assert [r.name for r in inline] == [s.name for s in specs]
     bad = {p.name for p in plan_logs(N, seed=21, corrupt=CORRUPT) if p.corruption}
-    assert {r.spec.name for r in inline if not r.ok} == bad
+    assert {r.name for r in inline if not r.ok} == bad
     assert all(r.fits and r.fits[0].ok for r in inline if r.ok)
 
 
 def test_local_pool_equals_in_process(batch, inline):
     specs, cfg = batch
-    assert_same(run_records(specs, cfg, workers=2, progress=False), inline)
+    assert_same(run_records(specs, cfg, process_record, workers=2, progress=False), inline)
 
 
 def test_dask_cluster_equals_local(batch, inline):
@@ -70,17 +70,17 @@ def test_dask_cluster_equals_local(batch, inline):
     with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}), \
             distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
                                      dashboard_address=None) as cluster:
-        result = run_records(specs, cfg, executor="dask", scheduler=cluster.scheduler_address,
-                             progress=False)
+        result = run_records(specs, cfg, process_record, executor="dask",
+                             scheduler=cluster.scheduler_address, progress=False)
     assert_same(result, inline)
 
 
 def test_progress_bar_only_when_asked(batch, capsys):
     specs, cfg = batch
-    run_records(specs[:3], cfg, workers=1, progress=True)
+    run_records(specs[:3], cfg, process_record, workers=1, progress=True)
     err = capsys.readouterr().err
     assert "records" in err and "3/3" in err and "failures:" in err
-    run_records(specs[:2], cfg, workers=1)  # stdout is not a terminal under pytest
+    run_records(specs[:2], cfg, process_record, workers=1)  # stdout: not a terminal here
     captured = capsys.readouterr()
     assert captured.err == "" and captured.out == ""
 
@@ -95,8 +95,8 @@ def flaky_job(spec: RecordSpec, cfg):
 @pytest.mark.parametrize("workers", [1, 2])
 def test_a_raising_job_fails_only_its_record(batch, workers):
     specs, cfg = batch
-    out = run_records(specs[:3], cfg, workers=workers, progress=False, job=flaky_job)
-    assert [r.spec.name for r in out] == [s.name for s in specs[:3]]
+    out = run_records(specs[:3], cfg, flaky_job, workers=workers, progress=False)
+    assert [r.name for r in out] == [s.name for s in specs[:3]]
     assert [is_failure(r) for r in out] == [False, True, False]
     assert out[1].error.endswith("processing crashed (RuntimeError: boom second line)")
 
@@ -104,18 +104,20 @@ def test_a_raising_job_fails_only_its_record(batch, workers):
 def test_argument_errors(batch, monkeypatch):
     specs, cfg = batch
     with pytest.raises(UserError, match="unknown executor"):
-        run_records(specs, cfg, executor="spark")
+        run_records(specs, cfg, process_record, executor="spark")
     with pytest.raises(UserError, match="at least 1"):
-        run_records(specs, cfg, workers=0)
-    assert run_records([], cfg) == []
+        run_records(specs, cfg, process_record, workers=0)
+    assert run_records([], cfg, process_record) == []
     assert resolve_workers(8, 3) == 3 and resolve_workers(None, 1) == 1
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
     with pytest.raises(UserError, match=r"pip install \.\[dask\]"):
-        run_records(specs, cfg, executor="dask", scheduler="tcp://127.0.0.1:8786")
+        run_records(specs, cfg, process_record, executor="dask", scheduler="tcp://127.0.0.1:8786")
 
 
-def test_crashed_and_is_failure_on_dicts():
+def test_crashed_and_is_failure():
     spec = RecordSpec("a", "a.csv")
-    assert crashed(spec, ValueError("x")).error == "a.csv: processing crashed (ValueError: x)"
-    assert crashed("plain", KeyError("k"))["status"] == "failed"
-    assert is_failure({"status": "failed"}) and not is_failure({"status": "ok"})
+    res = crashed(spec, ValueError("x"))
+    assert res.error == "a.csv: processing crashed (ValueError: x)" and is_failure(res)
+    assert '"status": "failed"' in results_json(
+        __import__("pipeline.results").results.RunResult([res]).to_doc())
+    assert crashed("plain", KeyError("k")).name == "plain"

@@ -14,6 +14,7 @@ from pipeline.errors import UserError
 from pipeline.history import PARAMS, append_history, history_rows, load_history, run_times
 from pipeline.record import make_record
 from pipeline.report.history_plots import history_figures, plot_frame
+from pipeline.results import as_doc
 from pipeline.synth_logs import plan_logs, write_nights
 
 from .test_baseline import failed_record, fit_record
@@ -32,8 +33,8 @@ def night_results(folder, night: int) -> dict:
         rec = make_record(f["time"].to_numpy(), f["u"].to_numpy(), f["y"].to_numpy(),
                           name=path.stem, source=str(path))
         records.append(fit_record(rec, METHODS))
-    return {"pipeline_version": "0.1.0", "config": "configs/nightly.yaml",
-            "created": (START + timedelta(days=night)).isoformat(), "records": records}
+    return as_doc({"pipeline_version": "0.1.0", "config": "configs/nightly.yaml",
+                   "created": (START + timedelta(days=night)).isoformat(), "records": records})
 
 
 @pytest.fixture(scope="module")
@@ -70,8 +71,8 @@ def test_gain_trend_follows_the_drift(history):
 
 
 def test_rows_of_a_failed_record_and_naive_times():
-    doc = {"pipeline_version": "0.1.0",
-           "records": [failed_record("bad", "bad.csv: the file is empty")]}
+    doc = as_doc({"pipeline_version": "0.1.0",
+                  "records": [failed_record("bad", "bad.csv: the file is empty")]})
     rows = history_rows(doc, datetime(2024, 1, 1, 3, 0))
     assert rows.height == 1 and rows.item(0, "status") == "failed"
     assert rows.item(0, "method") is None and rows.item(0, "event") is None
@@ -84,8 +85,8 @@ def test_rows_of_a_failed_record_and_naive_times():
 def test_appends_to_a_file_with_fewer_columns(tmp_path, history):
     path = tmp_path / "old.parquet"
     load_history(history).select("time", "record", "method", "K").write_parquet(path)
-    doc = {"pipeline_version": "0.2.0",
-           "records": [failed_record("bad", "bad.csv: the file is empty")]}
+    doc = as_doc({"pipeline_version": "0.2.0",
+                  "records": [failed_record("bad", "bad.csv: the file is empty")]})
     df = append_history(path, doc, START + timedelta(days=9))
     assert df.height == NIGHTS * 2 * len(METHODS) + 1
     assert load_history(path).get_column("status").null_count() == NIGHTS * 2 * len(METHODS)
@@ -99,7 +100,7 @@ def test_unreadable_history_is_a_user_error(tmp_path):
     with pytest.raises(UserError, match="not a readable parquet"):
         load_history(bad)
     with pytest.raises(UserError):
-        append_history(bad, {"records": []}, START)
+        append_history(bad, as_doc({"pipeline_version": "0", "records": []}), START)
     assert bad.read_bytes() == b"not parquet at all"
 
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from pipeline.analyse import AnalysisOptions, analyse
 from pipeline.models import ProcessModel
-from pipeline.run import analyse
 from pipeline.synth import step_record
 
 
@@ -15,7 +15,7 @@ def test_two_steps_validation_mse_equals_noise_variance():
     noise = 0.05
     rec = step_record(truth, u0=1.5, changes=[(13.7, 3.5), (113.7, 2.0)], t_end=213.7,
                       dt=0.05, y0=-4.0, noise=noise, seed=11)
-    res = analyse(rec, methods=["first_order"])
+    res = analyse(rec, AnalysisOptions(methods=("first_order",)))
     assert res.roles == {0: "identification", 1: "validation"}
     (fit,) = res.fits
     assert fit.ok
@@ -31,7 +31,7 @@ def test_validation_starts_at_each_runs_operating_point():
     truth = ProcessModel("first_order", {"K": 2.0, "T": 3.0})
     rec = step_record(truth, u0=0.0, changes=[(10, 1.0), (60, 3.0), (110, 2.0)], t_end=160,
                       dt=0.05, y0=5.0)
-    res = analyse(rec, events_for_identification=[1], methods=["first_order"])
+    res = analyse(rec, AnalysisOptions(events=(1,), methods=("first_order",)))
     (fit,) = res.fits
     assert res.roles == {0: "validation", 1: "identification", 2: "validation"}
     assert fit.metrics["mse_validation"] < 1e-6
@@ -41,7 +41,7 @@ def test_validation_starts_at_each_runs_operating_point():
 def test_missing_identification_event_is_a_record_error():
     truth = ProcessModel("first_order", {"K": 2.0, "T": 3.0})
     rec = step_record(truth, u0=0.0, changes=[(10, 1.0)], t_end=60, dt=0.1, y0=0.0)
-    res = analyse(rec, events_for_identification=[3])
+    res = analyse(rec, AnalysisOptions(events=(3,)))
     assert res.error and "event 3 does not exist" in res.error
 
 
@@ -49,7 +49,7 @@ def test_step_near_the_end_gives_no_silent_model():
     truth = ProcessModel("first_order", {"K": 2.0, "T": 10.0})
     rec = step_record(truth, u0=0.0, changes=[(10, 1.0), (99.0, 2.0)], t_end=99.5, dt=0.5,
                       y0=0.0)
-    res = analyse(rec, events_for_identification=[1])
+    res = analyse(rec, AnalysisOptions(events=(1,)))
     assert res.fits and all(f.status == "not_applicable" for f in res.fits)
     assert "window too short" in res.fits[0].reason
 

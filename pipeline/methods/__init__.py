@@ -10,7 +10,7 @@ import pkgutil
 from .registry import REGISTRY, MethodInfo, MethodResult, identify, register
 
 for _m in pkgutil.iter_modules(__path__):
-    if _m.name not in {"registry", "base"}:
+    if _m.name not in {"registry", "base", "references"}:
         importlib.import_module(f"{__name__}.{_m.name}")
 
 
@@ -28,4 +28,17 @@ def method_ids(event: str | None = None) -> list[str]:
     return [m.id for m in REGISTRY.values() if event is None or m.event == event]
 
 
-__all__ = ["REGISTRY", "MethodInfo", "MethodResult", "identify", "method_ids", "register"]
+def select_methods(requested: list[str] | str | None, event_kind: str) -> list[str]:
+    """The methods to run on an event of ``event_kind``: the one place this is decided.
+
+    ``"all"`` (or None) means every registered method for that kind of event; an explicit
+    list is run as given, so a method for another kind of event is listed as not
+    applicable with its reason (the user asked for it by name).
+    """
+    if requested is None or requested == "all":
+        return method_ids(event_kind)
+    return list(requested)
+
+
+__all__ = ["REGISTRY", "MethodInfo", "MethodResult", "identify", "method_ids", "register",
+           "select_methods"]

@@ -13,7 +13,8 @@ from .registry import MethodResult, register
 LEVEL_T = 0.632  # seed 001 writes 0.632 (ERRATA [S1] 13: 1 - e^-1 = 0.63212)
 
 
-@register(id="first_order", event="step", structure="K e^{-Ds}/(Ts+1)", order="first",
+@register(id="first_order", event="step", structures=("first_order",),
+          references=("rake1980", "busoniu"),
           source="seed 001 'General algorithm' (63.2 % point, nonzero u0, y0, t0) and "
                  "'Time delay'; seed 000 section I",
           title="First order, 63.2 % point")

@@ -66,8 +66,9 @@ def _fixed_point(tau: np.ndarray, h: np.ndarray, sigma: float, t73: float, delay
     return S, t1, y1, r, iterations
 
 
-@register(id="harriott", event="step", structure="K e^{-Ds}/((T1 s+1)(T2 s+1))",
-          order="second", source="seed 002 eqs 9-11 and Fig. 4 (Harriott); ERRATA [S2] 7-11",
+@register(id="harriott", event="step", structures=("two_lags",),
+          references=("harriott1964", "seborg1989"),
+          source="seed 002 eqs 9-11 and Fig. 4 (Harriott); ERRATA [S2] 7-11",
           title="Harriott (t73, chart at 0.5 (T1+T2))")
 def harriott(ev: EventData, exact_x73: bool = False) -> MethodResult:
     """``K e^{-Td s}/((T1 s+1)(T2 s+1))`` by Harriott's method (seed 002 eqs 9-11).

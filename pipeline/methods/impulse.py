@@ -118,8 +118,8 @@ def _band_exit(tau: np.ndarray, h: np.ndarray, frac: float, sig: float) -> float
 
 
 # -- first order ----------------------------------------------------------------------------
-@register(id="first_order_impulse", event="impulse", structure="K e^{-Ds}/(Ts+1)",
-          order="first",
+@register(id="first_order_impulse", event="impulse", structures=("first_order",),
+          references=("busoniu", "rake1980"),
           source="seed 001 'Impulse response models of first-order systems' (36.8 % decay, "
                  "K = y_ss/u_ss or K = y_max T); seed 000 section I impulse response; "
                  "ERRATA [S1] 3-6, 13",
@@ -221,7 +221,8 @@ def _fo_fit(ev: EventData, base: float, level: float) -> dict:
 
 # -- second order ---------------------------------------------------------------------------
 @register(id="second_order_impulse", event="impulse",
-          structure="K wn^2 e^{-Ds}/(s^2+2 zeta wn s+wn^2)", order="second",
+          structures=("second_order",),
+          references=("busoniu",),
           source="seed 001 'Impulse response models of second-order systems' (areas A+/A-, "
                  "period, K from steady state or first peak); ERRATA [S1] 1, 2, 5, 6, 8",
           title="Second order, impulse areas and period")

@@ -31,7 +31,8 @@ def latzel_row(mu: float) -> tuple[float, float, float, float, float]:
     return min(LATZEL_TABLE, key=lambda row: (abs(row[0] - mu), row[1]))
 
 
-@register(id="latzel", event="step", structure="K/(Ts+1)^n", order="nth",
+@register(id="latzel", event="step", structures=("n_lags",),
+          references=("latzel",),
           source="seed 002 eqs 6-8 and Table 1 (Latzel); ERRATA [S2] 1-4",
           title="Latzel (t10, t50, t90, Table 1)")
 def latzel(ev: EventData) -> MethodResult:

@@ -21,7 +21,8 @@ SETTLING_FACTOR = 5.0
 
 
 @register(id="second_order_pov", event="step",
-          structure="K wn^2 e^{-Ds}/(s^2+2 zeta wn s+wn^2)", order="second",
+          structures=("second_order",),
+          references=("seborg1989",),
           source="seed 000 section II (POV -> zeta, settling time t_s = 5 tau -> wn, "
                  "k0 = y_ss/a); ERRATA [S0] 3",
           title="Second order, POV and settling time")

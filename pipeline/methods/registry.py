@@ -1,20 +1,31 @@
 """The method registry: each method is a pure function registered with its metadata.
 
-``@register(id=..., event="step", structure="first_order", source="seed 001 ...")``
-on ``def method(ev: EventData) -> MethodResult``. :func:`identify` runs one by id and
-turns :class:`~pipeline.errors.NotApplicable` into a ``not_applicable`` fit and any other
+``@register(id=..., event="step", structures=("first_order",), references=(...),
+source="seed 001 ...")`` on ``def method(ev: EventData) -> MethodResult``. The id is the
+public contract (DESIGN.md); ``structures`` are keys of
+:data:`pipeline.models.STRUCTURES` (the models the method can return); ``references``
+are keys of :data:`pipeline.methods.references.REFERENCES` (the original publications,
+cited to users); ``source`` is the seed and equation the code follows (for developers).
+
+:func:`identify` runs one method by id and turns
+:class:`~pipeline.errors.NotApplicable` into a ``not_applicable`` fit and any other
 exception into ``failed``: a method never raises through it (STYLE.md 3).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ..errors import NotApplicable
 from ..events import EventData
 from ..fit import Fit
-from ..models import ProcessModel
+from ..models import STRUCTURES, ProcessModel
+from .references import REFERENCES
+
+#: Event kinds a method can need.
+EVENT_KINDS = ("step", "impulse")
 
 
 @dataclass(frozen=True)
@@ -28,25 +39,38 @@ class MethodResult:
 @dataclass(frozen=True)
 class MethodInfo:
     id: str
-    event: str  # "step" | "impulse"
-    structure: str  # model family, e.g. "K/(Ts+1)"
-    order: str  # "first" | "second" | "nth": the report's overlay view
+    event: str  # one of EVENT_KINDS
+    structures: tuple[str, ...]
+    references: tuple[str, ...]
     source: str
     func: Callable[[EventData], MethodResult]
     title: str = ""
+
+    @property
+    def citation(self) -> str:
+        """The original publications, for users."""
+        return "; ".join(REFERENCES[r] for r in self.references)
 
 
 REGISTRY: dict[str, MethodInfo] = {}
 
 
-def register(*, id: str, event: str, structure: str, order: str, source: str, title: str = ""):
-    """Class-free registration decorator; the id is the public contract (DESIGN.md)."""
+def register(*, id: str, event: str, structures: tuple[str, ...], references: tuple[str, ...],
+             source: str, title: str = ""):
+    """Class-free registration decorator; checks the metadata against the tables."""
 
     def deco(func):
         if id in REGISTRY:
             raise ValueError(f"method id {id!r} registered twice")
-        REGISTRY[id] = MethodInfo(id=id, event=event, structure=structure, order=order,
-                                  source=source, func=func, title=title or id)
+        if event not in EVENT_KINDS:
+            raise ValueError(f"method {id!r}: unknown event kind {event!r}")
+        unknown = [s for s in structures if s not in STRUCTURES]
+        unknown += [r for r in references if r not in REFERENCES]
+        if unknown or not structures:
+            raise ValueError(f"method {id!r}: unknown structures or references {unknown}")
+        REGISTRY[id] = MethodInfo(id=id, event=event, structures=tuple(structures),
+                                  references=tuple(references), source=source, func=func,
+                                  title=title or id)
         return func
 
     return deco
@@ -68,6 +92,9 @@ def identify(ev: EventData, method: str) -> Fit:
     if bad:
         return Fit(method, ev.index, "failed", f"non-finite parameters {bad}",
                    diagnostics=res.diagnostics)
+    if res.model.structure not in info.structures:
+        return Fit(method, ev.index, "failed", f"internal error: returned a "
+                   f"{res.model.structure} model, registered for {list(info.structures)}")
     return Fit(method, ev.index, "ok", None, res.model, {}, res.diagnostics)
 
 
@@ -76,6 +103,4 @@ def _article(kind: str) -> str:
 
 
 def _finite(v) -> bool:
-    import math
-
     return isinstance(v, int | float) and math.isfinite(v)

@@ -52,7 +52,8 @@ def oscillation(tau: np.ndarray, h: np.ndarray, sigma: float, level: float = 1.0
 
 
 @register(id="second_order_overshoot", event="step",
-          structure="K wn^2 e^{-Ds}/(s^2+2 zeta wn s+wn^2)", order="second",
+          structures=("second_order",),
+          references=("seborg1989", "busoniu"),
           source="seed 001 'Determining the parameters' (overshoot, period), "
                  "'Nonzero initial conditions', 'Time delay'",
           title="Second order, overshoot and period")

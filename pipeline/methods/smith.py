@@ -40,8 +40,9 @@ from .registry import MethodResult, register
 FIRST_ORDER_TOL = 1e-5
 
 
-@register(id="smith", event="step", structure="K/(tau^2 s^2+2 zeta tau s+1)",
-          order="second", source="seed 002 eqs 12-13 and Fig. 6 (Smith); ERRATA [S2] 12, 13",
+@register(id="smith", event="step", structures=("second_order", "two_lags", "first_order"),
+          references=("smith1972", "seborg1989"),
+          source="seed 002 eqs 12-13 and Fig. 6 (Smith); ERRATA [S2] 12, 13",
           title="Smith (t20/t60, Smith's charts)")
 def smith(ev: EventData) -> MethodResult:
     """Second-order model from ``t20/t60`` and ``t60/tau`` (seed 002 eqs 12-13).

@@ -164,8 +164,9 @@ def strejc_order(ratio: float, tol: float = FLOOR_TOL) -> tuple[int, float, floa
     return row
 
 
-@register(id="strejc", event="step", structure="K/(Ts+1)^n or K/((T1 s+1)(T2 s+1))",
-          order="nth", source="seed 002 eqs 14-21, Tables 2-3 (Strejc); ERRATA [S2] 14-22",
+@register(id="strejc", event="step", structures=("n_lags", "two_lags", "first_order"),
+          references=("strejc1959",),
+          source="seed 002 eqs 14-21, Tables 2-3 (Strejc); ERRATA [S2] 14-22",
           title="Strejc (inflection tangent Tu/Tn)")
 def strejc(ev: EventData) -> MethodResult:
     """Strejc's method (seed 002 eqs 14-21): see the module docstring for both cases

@@ -21,7 +21,8 @@ LEVEL_LOW = 0.353
 LEVEL_HIGH = 0.853
 
 
-@register(id="sundaresan", event="step", structure="K e^{-Ds}/(Ts+1)", order="first",
+@register(id="sundaresan", event="step", structures=("first_order",),
+          references=("sundaresan1978",),
           source="seed 002 eqs 22-24 (Sundaresan & Krishnaswamy)",
           title="Sundaresan & Krishnaswamy (t35.3, t85.3)")
 def sundaresan(ev: EventData) -> MethodResult:

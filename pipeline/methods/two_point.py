@@ -19,8 +19,8 @@ from .registry import MethodResult, register
 LEVELS: tuple[float, float] = (0.30, 0.80)
 
 
-@register(id="first_order_two_point", event="step", structure="K e^{-Ds}/(Ts+1)",
-          order="first",
+@register(id="first_order_two_point", event="step", structures=("first_order",),
+          references=("rake1980", "seborg1989"),
           source="seed 000 section I (two points (t1, y(t1)), (t2, y(t2)) on the step "
                  "response); ERRATA [S0] 5 (k -> y_ss), [S1] 14 (implied dead time)",
           title="First order, two read points")

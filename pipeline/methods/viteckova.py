@@ -53,7 +53,8 @@ def _diagnostics(ev: EventData, t33: float, t70: float, raw: float) -> dict:
             "delay_computed": raw, "delay_dropped": raw < 0}
 
 
-@register(id="viteckova1", event="step", structure="K e^{-Ds}/(Ts+1)", order="first",
+@register(id="viteckova1", event="step", structures=("first_order",),
+          references=("viteckova2004",),
           source="seed 002 eqs 1-3 (Viteckova, first order); ERRATA [S2] 5, 6",
           title="Viteckova, first order (t33, t70)")
 def viteckova1(ev: EventData) -> MethodResult:
@@ -71,7 +72,8 @@ def viteckova1(ev: EventData) -> MethodResult:
     return MethodResult(model, _diagnostics(ev, t33, t70, raw))
 
 
-@register(id="viteckova2", event="step", structure="K e^{-Ds}/(Ts+1)^2", order="second",
+@register(id="viteckova2", event="step", structures=("n_lags",),
+          references=("viteckova2004",),
           source="seed 002 eqs 4-5 (Viteckova, second order); ERRATA [S2] 5, 6",
           title="Viteckova, second order (t33, t70)")
 def viteckova2(ev: EventData) -> MethodResult:

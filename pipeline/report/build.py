@@ -7,7 +7,6 @@ crash never leaves a half-written report.
 from __future__ import annotations
 
 import base64
-import json
 import math
 import os
 import re
@@ -21,9 +20,11 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 
 from ..errors import UserError
 from ..methods import REGISTRY
-from ..run import RecordResult
+from ..results import RecordResult, RunResult, results_json
+from ..schema import ResultsDoc
 from ..validate import event_simulation, validation_simulation
 from . import plots
+from .tables import fmt, params_text, summary_rows
 
 ORDER_TITLES = {"first": "first-order models", "second": "second-order models",
                 "nth": "n-th order models"}
@@ -48,23 +49,6 @@ class Extras:
     regressions: list[dict] | None = None
     new: list[str] = field(default_factory=list)
     history: list[tuple[str, bytes]] = field(default_factory=list)
-
-
-def fmt(v, digits: int = 4) -> str:
-    if v is None:
-        return "-"
-    if isinstance(v, float):
-        if not math.isfinite(v):
-            return "-"
-        return f"{v:.{digits}g}"
-    return str(v)
-
-
-def params_text(params: dict | None) -> str:
-    if not params:
-        return "-"
-    return ", ".join(f"{k}={fmt(float(v))}" for k, v in params.items()
-                     if not (k == "delay" and float(v) == 0.0))
 
 
 def _slug(text: str) -> str:
@@ -97,8 +81,8 @@ def unique_anchors(names: list[str]) -> list[str]:
 
 def _record_context(res: RecordResult, mode: str, add, anchor: str) -> dict:
     rec = res.record
-    ctx = {"name": res.spec.name, "anchor": anchor, "ok": res.ok,
-           "error": res.error, "source": rec.source if rec else res.spec.path,
+    ctx = {"name": res.name, "anchor": anchor, "ok": res.ok,
+           "error": res.error, "source": rec.source if rec else res.source,
            "notes": list(rec.notes) if rec else [], "events": [], "ident": []}
     if rec is None:
         return ctx
@@ -115,8 +99,8 @@ def _record_context(res: RecordResult, mode: str, add, anchor: str) -> dict:
     if res.events and mode != "none":
         ctx["overview"] = add(f"{ctx['anchor']}_overview",
                               "Record with events", plots.overview(rec, res.events, res.roles))
-    validation = [i for i, r in res.roles.items() if r == "validation"]
-    for i in sorted(i for i, r in res.roles.items() if r == "identification"):
+    validation = res.validation_events
+    for i in res.identification_events:
         ctx["ident"].append(_ident_context(res, i, validation, mode, add, ctx["anchor"]))
     return ctx
 
@@ -130,11 +114,10 @@ def _ident_context(res: RecordResult, i: int, validation: list[int], mode: str, 
     for rank, f in enumerate(ranked, start=1):
         m = f.metrics
         rows.append({"rank": rank, "method": f.method, "title": REGISTRY[f.method].title,
-                     "order": REGISTRY[f.method].order,
                      "params": params_text(f.model.params), "tf": f.model.text(),
                      "ise": fmt(m.get("ise")), "mse_id": fmt(m.get("mse_identification")),
                      "mse_val": fmt(m.get("mse_validation")), "fit": fmt(m.get("fit_percent"), 3),
-                     "source": REGISTRY[f.method].source})
+                     "source": REGISTRY[f.method].citation})
     other = [{"method": f.method, "status": f.status, "reason": f.reason}
              for f in res.fits if f.event == i and not f.ok]
     out = {"index": i, "kind": ev.kind, "rows": rows, "other": other,
@@ -184,29 +167,6 @@ def _validation_overlay(res: RecordResult, fits, validation, label) -> bytes:
                          "operating point", events=res.events, roles=res.roles)
 
 
-def summary_rows(results: list[RecordResult], anchors: list[str]) -> list[dict]:
-    rows = []
-    for r, anchor in zip(results, anchors, strict=True):
-        best = r.best
-        p = best.model.params if best else {}
-        if "zeta" in p:
-            dyn = f"zeta={fmt(p['zeta'])}, wn={fmt(p['wn'])}"
-        elif "T1" in p:
-            dyn = f"T1={fmt(p['T1'])}, T2={fmt(p['T2'])}"
-        elif "T" in p:
-            dyn = f"T={fmt(p['T'])}" + (f", n={fmt(p['n'])}" if "n" in p else "")
-        else:
-            dyn = "-"
-        rows.append({
-            "name": r.spec.name, "anchor": anchor,
-            "status": "ok" if r.ok else "failed", "reason": r.error or "",
-            "events": len(r.events), "best": best.method if best else "-",
-            "K": fmt(p.get("K")), "dyn": dyn,
-            "mse": fmt(best.metrics.get("mse_validation")) if best else "-",
-        })
-    return rows
-
-
 def _collector(files: dict[str, bytes]):
     def add(stem: str, fig_title: str, png: bytes) -> Figure:
         name = f"plots/{_slug(stem)}.png"
@@ -229,7 +189,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
         plots.DPI = dpi
 
 
-def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras | None = None,
+def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None = None,
            plots_mode: str = "auto", mapper=map) -> tuple[str, str, dict[str, bytes]]:
     """``(markdown, html, {png file name: bytes})`` for a run.
 
@@ -240,11 +200,12 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
     """
     files: dict[str, bytes] = {}
     add = _collector(files)
+    results = run.records
     mode = plots_mode if plots_mode != "auto" else (
         "full" if len(results) <= MAX_FULL_RECORDS else "summary")
     extras = extras or Extras()
     history = [add(f"history_{k}", t, png) for k, (t, png) in enumerate(extras.history)]
-    anchors = unique_anchors([r.spec.name for r in results])
+    anchors = unique_anchors([r.name for r in results])
     sections = []
     for section, section_files in mapper(record_section, results, [mode] * len(results),
                                          anchors):
@@ -267,7 +228,7 @@ def render(results: list[RecordResult], doc: dict, *, title: str, extras: Extras
 OUTPUTS = ("results.json", "report.md", "report.html", "plots")
 
 
-def write_run(out_dir: Path, results: list[RecordResult], doc: dict, *, title: str,
+def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
               extras: Extras | None = None, markdown: bool = True, html: bool = True,
               plots_mode: str = "auto", mapper=map) -> Path:
     """Write results.json, report.md (+ plots/) and report.html into ``out_dir``.
@@ -281,12 +242,11 @@ def write_run(out_dir: Path, results: list[RecordResult], doc: dict, *, title: s
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     if out_dir.exists() and not out_dir.is_dir():
         raise UserError(f"{out_dir}: exists and is not a folder; expected an output folder")
-    md, page, files = render(results, doc, title=title, extras=extras, plots_mode=plots_mode,
+    md, page, files = render(run, doc, title=title, extras=extras, plots_mode=plots_mode,
                              mapper=mapper)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
     try:
-        (tmp / "results.json").write_text(json.dumps(doc, indent=1, default=_json_default,
-                                                     allow_nan=False) + "\n")
+        (tmp / "results.json").write_text(results_json(doc), encoding="utf-8")
         if markdown:
             (tmp / "plots").mkdir()
             for name, png in files.items():
@@ -314,9 +274,3 @@ def _replace_outputs(tmp: Path, out_dir: Path) -> None:
             os.replace(dst, old / name)
         if src.exists():
             os.replace(src, dst)
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

@@ -1,7 +1,8 @@
 """Trend plots of the run history (:mod:`pipeline.history`) as PNG bytes.
 
-One figure per model parameter present in the history (K, T, T1, T2, n, zeta, wn, delay)
-and one of the validation MSE, each over the run times, one line per (record, method)
+One figure per model parameter present in the history (the parameter table,
+:data:`pipeline.models.PARAMETERS`, gives the columns and labels) and one of the
+validation MSE, each over the run times, one line per (record, method)
 (and event, when a record has several identification events). Only ``ok`` fits are
 drawn. With more series than ``max_lines`` only the records' best fits are drawn, and
 if that is still too many, the first ``max_lines`` series by name (the title says so).
@@ -19,11 +20,10 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..history import PARAMS
+from ..models import PARAMETERS
 
-LABELS = {"K": "gain K", "T": "time constant T (s)", "T1": "time constant T1 (s)",
-          "T2": "time constant T2 (s)", "n": "order n", "zeta": "damping zeta",
-          "wn": "natural frequency wn (rad/s)", "delay": "dead time (s)",
-          "mse_validation": "validation MSE"}
+LABELS = {**{p.name: p.label + (f" ({p.unit()})" if p.kind in ("time", "frequency") else "")
+             for p in PARAMETERS.values()}, "mse_validation": "validation MSE"}
 
 
 def history_figures(df: pl.DataFrame, record: str | None = None, *, max_lines: int = 12,

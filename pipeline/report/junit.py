@@ -23,26 +23,27 @@ from pathlib import Path
 
 from ..baseline import Comparison, Finding
 from ..files import write_atomic
+from ..schema import FitDoc, RecordDoc, ResultsDoc
 
 SUITE = "pipeline"
 
 
-def junit_xml(current: dict, comparison: Comparison | None = None) -> str:
-    """The JUnit XML document of a results.json object and its comparison (or none)."""
+def junit_xml(current: ResultsDoc, comparison: Comparison | None = None) -> str:
+    """The JUnit XML document of a results document and its comparison (or none)."""
     comparison = comparison or Comparison()
     suite = ET.Element("testsuite", {"name": _suite_name(current)})
-    if current.get("created"):
-        suite.set("timestamp", str(current["created"]))
+    if current.created:
+        suite.set("timestamp", current.created)
     _properties(suite, current, comparison)
     seen: set[tuple[str, int | None, str | None]] = set()
-    for rec in current.get("records", []):
-        name = str(rec["name"])
-        if rec.get("status", "ok") != "ok":
+    for rec in current.records:
+        name = rec.name
+        if rec.status != "ok":
             suite.append(_failed_record_case(rec, comparison.for_fit(name, None, None)))
             seen.add((name, None, None))
             continue
-        for fit in rec.get("fits", []):
-            key = (name, int(fit["event"]), str(fit["method"]))
+        for fit in rec.fits:
+            key = (name, fit.event, fit.method)
             seen.add(key)
             suite.append(_fit_case(name, fit, comparison.for_fit(*key)))
     for key in _unseen_keys(comparison, seen):
@@ -56,7 +57,7 @@ def junit_xml(current: dict, comparison: Comparison | None = None) -> str:
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
 
 
-def write_junit(path: str | os.PathLike, current: dict,
+def write_junit(path: str | os.PathLike, current: ResultsDoc,
                 comparison: Comparison | None = None) -> Path:
     """Write :func:`junit_xml` to ``path`` atomically (temporary file, then rename)."""
     p = Path(path)
@@ -67,15 +68,15 @@ def write_junit(path: str | os.PathLike, current: dict,
 
 # -- testcases ---------------------------------------------------------------------------
 
-def _suite_name(current: dict) -> str:
-    config = current.get("config")
-    return f"{SUITE}: {config}" if config else SUITE
+def _suite_name(current: ResultsDoc) -> str:
+    return f"{SUITE}: {current.config}" if current.config else SUITE
 
 
-def _properties(suite: ET.Element, current: dict, comparison: Comparison) -> None:
+def _properties(suite: ET.Element, current: ResultsDoc, comparison: Comparison) -> None:
     props = ET.SubElement(suite, "properties")
-    items = {"pipeline_version": current.get("pipeline_version"),
-             "config": current.get("config"),
+    items = {"pipeline_version": current.pipeline_version,
+             "schema_version": current.schema_version,
+             "config": current.config or None,
              "baseline_summary": comparison.summary() if comparison.settings else None}
     items.update({f"tolerance.{k}": v for k, v in comparison.settings.items()})
     for key, value in items.items():
@@ -87,23 +88,23 @@ def _case(record: str, name: str) -> ET.Element:
     return ET.Element("testcase", {"classname": record, "name": name, "time": "0"})
 
 
-def _fit_case(record: str, fit: dict, findings: list[Finding]) -> ET.Element:
-    case = _case(record, f"event {fit['event']} / {fit['method']}")
+def _fit_case(record: str, fit: FitDoc, findings: list[Finding]) -> ET.Element:
+    case = _case(record, f"event {fit.event} / {fit.method}")
     for f in findings:
         _add_failure(case, f)
-    status = fit.get("status", "ok")
+    status = fit.status
     if not findings and status != "ok":
-        reason = fit.get("reason") or "no reason given"
+        reason = fit.reason or "no reason given"
         text = reason if status == "not_applicable" else f"method failed: {reason}"
         ET.SubElement(case, "skipped", {"message": text, "type": status})
     return case
 
 
-def _failed_record_case(rec: dict, findings: list[Finding]) -> ET.Element:
-    case = _case(str(rec["name"]), "record")
-    error = rec.get("error") or "; ".join(rec.get("errors") or []) or "record failed"
+def _failed_record_case(rec: RecordDoc, findings: list[Finding]) -> ET.Element:
+    case = _case(rec.name, "record")
+    error = rec.error or "; ".join(rec.errors) or "record failed"
     err = ET.SubElement(case, "error", {"message": error, "type": "failed"})
-    err.text = f"record: {rec['name']}\nsource: {rec.get('source', '')}\nerror: {error}"
+    err.text = f"record: {rec.name}\nsource: {rec.source}\nerror: {error}"
     for f in findings:
         _add_failure(case, f)
     return case

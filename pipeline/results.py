@@ -1,0 +1,258 @@
+"""What an analysis returns, and results.json: written and read in one place.
+
+:class:`RecordResult` is one record's outcome in memory (the record's arrays, its events,
+every fit); :class:`RunResult` is a run's records and where they came from. Both turn
+into the typed document of :mod:`pipeline.schema` (:meth:`RunResult.to_doc`), which
+:func:`results_json` writes and :func:`load_results` reads back (validated, any
+readable schema version). The report, the regression gate, the history and the JUnit
+writer all take that document.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydantic import ValidationError
+
+from .errors import UserError
+from .events import Event
+from .files import read_text, write_atomic
+from .fit import Fit, Flag
+from .record import Record
+from .schema import (
+    READABLE_VERSIONS,
+    BestDoc,
+    EventDoc,
+    FitDoc,
+    FlagDoc,
+    MetricsDoc,
+    RecommendedDoc,
+    RecordDoc,
+    ResultsDoc,
+    TransferFunctionDoc,
+)
+from .version import __version__
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """The record's recommended model: which fit, and why (grading sets it)."""
+
+    method: str
+    event: int
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class RecordResult:
+    """One record's outcome. ``error`` is set when it could not be analysed; ``roles``
+    maps event index -> "identification" | "validation" | "unused"."""
+
+    name: str
+    source: str
+    record: Record | None = None
+    events: list[Event] = field(default_factory=list)
+    roles: dict[int, str] = field(default_factory=dict)
+    fits: list[Fit] = field(default_factory=list)
+    error: str | None = None
+    recommendation: Recommendation | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    @property
+    def identification_events(self) -> list[int]:
+        return sorted(i for i, r in self.roles.items() if r == "identification")
+
+    @property
+    def validation_events(self) -> list[int]:
+        return sorted(i for i, r in self.roles.items() if r == "validation")
+
+    def ranking(self, event: int | None = None) -> list[Fit]:
+        """ok fits ranked by validation MSE (ISE when there is no validation data)."""
+        fits = [f for f in self.fits if f.ok and (event is None or f.event == event)]
+        return sorted(fits, key=rank_key)
+
+    @property
+    def best(self) -> Fit | None:
+        """The ranked-best fit of the first identification event."""
+        ident = self.identification_events
+        ranked = self.ranking(ident[0] if ident else None)
+        return ranked[0] if ranked else None
+
+    def fit(self, method: str, event: int) -> Fit | None:
+        return next((f for f in self.fits if f.method == method and f.event == event), None)
+
+    @property
+    def recommended(self) -> Fit | None:
+        """The fit the recommendation points at."""
+        r = self.recommendation
+        return self.fit(r.method, r.event) if r else None
+
+    def to_doc(self) -> RecordDoc:
+        """This record's results.json entry."""
+        rec = self.record
+        best = self.best
+        return RecordDoc(
+            name=self.name, source=rec.source if rec else self.source,
+            status="ok" if self.ok else "failed", error=self.error,
+            n_samples=rec.n_samples if rec else 0,
+            sample_time=rec.sample_time if rec else None,
+            units=dict(rec.units) if rec else {}, notes=list(rec.notes) if rec else [],
+            events=[event_doc(e, self.roles.get(e.index, "unused")) for e in self.events],
+            fits=[fit_doc(f) for f in self.fits],
+            best=BestDoc(method=best.method, event=best.event) if best else None,
+            recommended=self._recommended_doc(),
+            errors=[self.error] if self.error else [],
+        )
+
+    def _recommended_doc(self) -> RecommendedDoc | None:
+        f = self.recommended
+        if f is None or f.model is None:
+            return None
+        return RecommendedDoc(
+            method=f.method, event=f.event, structure=f.model.structure,
+            params=_params(f.model.params), ci95=_ci(f.ci95), verdict=f.verdict,
+            flags=[flag_doc(x) for x in f.flags], reason=self.recommendation.reason)
+
+
+def rank_key(f: Fit) -> tuple[float, float]:
+    """Sort key: validation MSE, then ISE (NaN last)."""
+    v = f.metrics.get("mse_validation", math.nan)
+    i = f.metrics.get("ise", math.nan)
+    return (v if math.isfinite(v) else math.inf, i if math.isfinite(i) else math.inf)
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """A run: its records and where they came from (``config``: the config file, or
+    what ``identify`` was called on)."""
+
+    records: list[RecordResult]
+    config: str = ""
+    created: str = ""
+
+    @property
+    def failures(self) -> list[str]:
+        return [r.error for r in self.records if r.error]
+
+    def to_doc(self) -> ResultsDoc:
+        return ResultsDoc(pipeline_version=__version__, config=self.config,
+                          created=self.created, records=[r.to_doc() for r in self.records])
+
+
+# -- runtime objects -> document ---------------------------------------------------------
+
+def event_doc(e: Event, role: str) -> EventDoc:
+    impulse = e.kind == "impulse"
+    return EventDoc(
+        index=e.index, kind=e.kind, t0=e.t0, t_end=e.t_end, i_start=e.i_start,
+        i_end=e.i_end, u0=e.u0, u_ss=e.u_ss, y0=_finite(e.y0), y_ss=_finite(e.y_ss),
+        area=e.area if impulse else None, duration=e.duration if impulse else None,
+        settled=e.settled, noise=_finite(e.noise), role=role)
+
+
+def flag_doc(f: Flag) -> FlagDoc:
+    return FlagDoc(code=f.code, message=f.message, severity=f.severity,
+                   values={k: _plain(v) for k, v in f.values.items()})
+
+
+def fit_doc(f: Fit) -> FitDoc:
+    m = f.model
+    tf = None
+    if m is not None:
+        nd = m.num_den()
+        tf = TransferFunctionDoc(num=nd[0] if nd else None, den=nd[1] if nd else None,
+                                 delay=m.delay, text=m.text())
+    metrics = MetricsDoc(**{k: _finite(v) for k, v in f.metrics.items()
+                            if k in MetricsDoc.model_fields})
+    return FitDoc(
+        method=f.method, event=f.event, status=f.status, reason=f.reason,
+        structure=m.structure if m else None, params=_params(m.params) if m else None,
+        ci95=_ci(f.ci95), transfer_function=tf, metrics=metrics, verdict=f.verdict,
+        flags=[flag_doc(x) for x in f.flags], diagnostics=_plain(f.diagnostics))
+
+
+def _params(p: dict) -> dict[str, float]:
+    return {k: float(v) for k, v in p.items()}
+
+
+def _ci(ci: dict) -> dict[str, tuple[float | None, float | None]]:
+    return {k: (_finite(lo), _finite(hi)) for k, (lo, hi) in ci.items()}
+
+
+def _finite(v) -> float | None:
+    return float(v) if v is not None and math.isfinite(float(v)) else None
+
+
+def _plain(obj):
+    """numpy scalars and arrays to JSON-friendly Python values; NaN/inf to None."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+# -- the file ----------------------------------------------------------------------------
+
+def results_json(doc: ResultsDoc) -> str:
+    """The results.json text of ``doc`` (strict JSON: NaN is null)."""
+    return doc.model_dump_json(indent=1) + "\n"
+
+
+def write_results(path: str | os.PathLike, doc: ResultsDoc) -> Path:
+    """Write ``doc`` to ``path`` atomically."""
+    p = Path(path)
+    write_atomic(p, results_json(doc).encode("utf-8"))
+    return p
+
+
+def parse_results(text: str, where: str = "<results>") -> ResultsDoc:
+    """Validate results.json text; a problem is a one-line :class:`UserError`."""
+    import json
+
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise UserError(f"{where}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    if not isinstance(raw, dict) or not isinstance(raw.get("records"), list):
+        raise UserError(f"{where}: not a results.json file; expected an object with a "
+                        "'records' list")
+    version = str(raw.get("schema_version", "1"))
+    if version not in READABLE_VERSIONS:
+        raise UserError(f"{where}: schema_version {version!r} is not readable by pipeline "
+                        f"{__version__}; expected one of {', '.join(READABLE_VERSIONS)}")
+    raw["schema_version"] = version
+    try:
+        return ResultsDoc.model_validate(raw)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        loc = ".".join(str(p) for p in err["loc"])
+        raise UserError(f"{where}: not a valid results.json ({loc}: {err['msg']})") from None
+
+
+def as_doc(doc: ResultsDoc | dict) -> ResultsDoc:
+    """A results document; a plain dict (e.g. built by hand in a test) is validated."""
+    if isinstance(doc, ResultsDoc):
+        return doc
+    import json
+
+    return parse_results(json.dumps(doc))
+
+
+def load_results(path: str | os.PathLike) -> ResultsDoc:
+    """Read and validate a results.json (or baseline) file."""
+    p = Path(path)
+    return parse_results(read_text(p, "results file"), str(p))

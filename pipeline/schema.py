@@ -1,0 +1,162 @@
+"""The results contract: typed models of results.json (DESIGN.md "Results contract").
+
+One pydantic model per object of the document. The JSON Schema that ``pipeline schema``
+prints is generated from them (:func:`json_schema`) and shipped in the package
+(``pipeline/data/results.schema.json``, checked against the models by a test). The
+report, the regression gate, the history and the JUnit writer read these objects, never
+string keys of a dict.
+
+Versions: ``schema_version`` "2" is this layout. Version 1 (pipeline 0.1, no
+``schema_version`` key) is read too: its objects are a subset of version 2.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+SCHEMA_VERSION = "2"
+READABLE_VERSIONS = ("1", "2")
+
+FitStatus = Literal["ok", "not_applicable", "failed"]
+Verdict = Literal["ok", "warning", "unreliable"]
+
+
+class _Doc(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, ser_json_inf_nan="null")
+
+
+class FlagDoc(_Doc):
+    """One reason behind a verdict: a stable code, plain words and the numbers."""
+
+    code: str
+    message: str
+    values: dict[str, float | str | None] = Field(default_factory=dict)
+    severity: Literal["warning", "unreliable"] = "warning"
+
+
+class TransferFunctionDoc(_Doc):
+    """The rational part in descending powers of s (null for a non-integer order), the
+    dead time beside it, and a readable text."""
+
+    num: list[float] | None = None
+    den: list[float] | None = None
+    delay: float = 0.0
+    text: str = ""
+
+
+class MetricsDoc(_Doc):
+    """Fit criteria (null where there is no data): ``ise`` over the identification event
+    (seed 002 eq. 25), ``mse_identification`` over the same samples, ``mse_validation``
+    (seed 001's J) and ``fit_percent`` (MATLAB's NRMSE fit) over the validation events."""
+
+    ise: float | None = None
+    mse_identification: float | None = None
+    mse_validation: float | None = None
+    fit_percent: float | None = None
+
+
+class FitDoc(_Doc):
+    """One method on one event (``events``: all identification events of a multi-event
+    fit; empty means ``[event]``)."""
+
+    method: str
+    event: int
+    events: list[int] = Field(default_factory=list)
+    status: FitStatus
+    reason: str | None = None
+    structure: str | None = None
+    params: dict[str, float] | None = None
+    ci95: dict[str, tuple[float | None, float | None]] = Field(default_factory=dict)
+    transfer_function: TransferFunctionDoc | None = None
+    metrics: MetricsDoc = Field(default_factory=MetricsDoc)
+    verdict: Verdict | None = None
+    flags: list[FlagDoc] = Field(default_factory=list)
+    diagnostics: dict[str, Any] = Field(default_factory=dict)
+
+
+class EventDoc(_Doc):
+    """One step or impulse found by segmentation, and the role it played."""
+
+    index: int
+    kind: Literal["step", "impulse"]
+    t0: float
+    t_end: float
+    i_start: int
+    i_end: int
+    u0: float
+    u_ss: float
+    y0: float | None
+    y_ss: float | None
+    area: float | None = None
+    duration: float | None = None
+    settled: bool
+    noise: float | None = None
+    role: Literal["identification", "validation", "unused"] = "unused"
+
+
+class BestDoc(_Doc):
+    """The ranked-best fit of the first identification event (lowest validation MSE)."""
+
+    method: str
+    event: int
+
+
+class RecommendedDoc(_Doc):
+    """The model to use for the record, with why it was chosen and whether to trust it."""
+
+    method: str
+    event: int
+    structure: str
+    params: dict[str, float]
+    ci95: dict[str, tuple[float | None, float | None]] = Field(default_factory=dict)
+    verdict: Verdict | None = None
+    flags: list[FlagDoc] = Field(default_factory=list)
+    reason: str = ""
+
+
+class RecordDoc(_Doc):
+    """One log: what was loaded, the events found, every fit, and the recommendation."""
+
+    name: str
+    source: str
+    status: Literal["ok", "failed"]
+    error: str | None = None
+    n_samples: int = 0
+    sample_time: float | None = None
+    units: dict[str, str] = Field(default_factory=dict)
+    notes: list[str] = Field(default_factory=list)
+    events: list[EventDoc] = Field(default_factory=list)
+    fits: list[FitDoc] = Field(default_factory=list)
+    best: BestDoc | None = None
+    recommended: RecommendedDoc | None = None
+    errors: list[str] = Field(default_factory=list)
+
+
+class ResultsDoc(_Doc):
+    """The whole results.json document."""
+
+    model_config = ConfigDict(title="pipeline results.json")
+
+    schema_version: Literal["1", "2"] = SCHEMA_VERSION
+    pipeline_version: str
+    config: str = ""
+    created: str = ""
+    records: list[RecordDoc] = Field(default_factory=list)
+
+    def record(self, name: str) -> RecordDoc | None:
+        """The record called ``name``, if any."""
+        return next((r for r in self.records if r.name == name), None)
+
+
+def json_schema() -> dict:
+    """The JSON Schema of results.json (draft 2020-12), generated from the models."""
+    schema = ResultsDoc.model_json_schema(mode="serialization")
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", **schema}
+
+
+def json_schema_text() -> str:
+    """:func:`json_schema` as the text shipped in ``pipeline/data/results.schema.json``."""
+    return json.dumps(json_schema(), indent=1, sort_keys=True) + "\n"
