@@ -60,105 +60,16 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .files import write_atomic
+from .findings import Comparison, Finding, is_number, num_text, pct_text
 from .models import PARAMETERS, STRUCTURES, ProcessModel
 from .results import as_doc, load_results
 from .schema import FitDoc, RecordDoc, ResultsDoc
-
-
-@dataclass(frozen=True)
-class Finding:
-    """One difference between the current results and the baseline.
-
-    ``event`` and ``method`` are ``None`` for record-level findings. ``change`` is the
-    relative change (a fraction; see the module docstring for the scale) for
-    param_drift and mse_growth, ``None`` otherwise. ``tolerance`` is the limit it was
-    compared with.
-    """
-
-    record: str
-    event: int | None
-    method: str | None
-    kind: str
-    parameter: str | None = None
-    baseline_value: float | str | None = None
-    current_value: float | str | None = None
-    change: float | None = None
-    tolerance: float | None = None
-    message: str = ""
-
-    def __str__(self) -> str:
-        return self.message
-
-    @property
-    def where(self) -> str:
-        """``record``, or ``record event N method`` for a fit."""
-        if self.method is None:
-            return self.record
-        return f"{self.record} event {self.event} {self.method}"
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-    def as_row(self) -> dict[str, str]:
-        """Display strings for a report table: record, event, method, what, baseline,
-        current, change."""
-        what = {"mse_growth": "validation MSE", "status": "status",
-                "missing": "missing", "new": "new"}.get(self.kind, self.parameter or "")
-        return {
-            "record": self.record,
-            "event": "" if self.event is None else str(self.event),
-            "method": self.method or "",
-            "what": what,
-            "baseline": _display(self.baseline_value),
-            "current": _display(self.current_value),
-            "change": "" if self.change is None else _pct(self.change),
-            "message": self.message,
-        }
-
-
-@dataclass(frozen=True)
-class Comparison:
-    """The outcome of :func:`compare`: regressions, new items and missing items."""
-
-    regressions: tuple[Finding, ...] = ()
-    new: tuple[Finding, ...] = ()
-    missing: tuple[Finding, ...] = ()
-    settings: dict = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        """True when there is no regression (exit code 0 as far as the gate goes)."""
-        return not self.regressions
-
-    def for_fit(self, record: str, event: int | None, method: str | None) -> list[Finding]:
-        """The regressions of one record (``event``/``method`` None: record-level)."""
-        return [f for f in self.regressions
-                if f.record == record and f.event == event and f.method == method]
-
-    def summary(self) -> str:
-        """One line: counts of regressions, new and missing items."""
-        if self.ok:
-            head = "no regression against the baseline"
-        else:
-            n_rec = len({f.record for f in self.regressions})
-            head = f"{len(self.regressions)} regression(s) in {n_rec} record(s)"
-        return f"{head}; {len(self.new)} new, {len(self.missing)} missing"
-
-    def to_dict(self) -> dict:
-        return {
-            "ok": self.ok,
-            "summary": self.summary(),
-            "settings": dict(self.settings),
-            "regressions": [f.to_dict() for f in self.regressions],
-            "new": [f.to_dict() for f in self.new],
-            "missing": [f.to_dict() for f in self.missing],
-        }
 
 
 @dataclass(frozen=True)
@@ -316,7 +227,7 @@ def param_findings(record: str, event: int, method: str, base: FitDoc, cur: FitD
     for name in sorted(names, key=_param_order):
         default = 0.0 if name == "delay" else None  # no delay entry: no dead time
         b, c = bp.get(name, default), cp.get(name, default)
-        if not (_is_number(b) and _is_number(c)):
+        if not (is_number(b) and is_number(c)):
             continue
         b, c = float(b), float(c)
         change = relative_change(name, bs, bp, c)
@@ -324,8 +235,9 @@ def param_findings(record: str, event: int, method: str, base: FitDoc, cur: FitD
         if abs(change) > limit:
             out.append(Finding(
                 record, event, method, "param_drift", name, b, c, change, limit,
-                message=f"{where}: {name} drifted {_pct(change)} ({_num(b)} -> {_num(c)}; "
-                        f"tolerance {_pct(limit, sign=False)}{_scale_note(name, bs, bp)})"))
+                message=f"{where}: {name} drifted {pct_text(change)} ({num_text(b)} -> "
+                        f"{num_text(c)}; tolerance {pct_text(limit, sign=False)}"
+                        f"{_scale_note(name, bs, bp)})"))
     return out
 
 
@@ -339,8 +251,8 @@ def _structure_findings(record, event, method, base: FitDoc, cur: FitDoc,
         record, event, method, "param_drift", "structure", str(bs), str(cs), dist,
         tol.dynamics,
         message=f"{record} event {event} {method}: model structure changed {bs} -> {cs}; "
-                f"step responses differ by up to {_pct(dist, sign=False)} of the gain "
-                f"(tolerance {_pct(tol.dynamics, sign=False)})")]
+                f"step responses differ by up to {pct_text(dist, sign=False)} of the gain "
+                f"(tolerance {pct_text(tol.dynamics, sign=False)})")]
 
 
 def step_response_distance(structure_a: str | None, params_a: Mapping[str, float],
@@ -380,7 +292,7 @@ def mse_findings(record: str, event: int, method: str, base: FitDoc, cur: FitDoc
                  tol: Tolerances, dy: float) -> list[Finding]:
     """Validation MSE growth of one fit that is ok in both runs (null: not compared)."""
     b, c = base.metrics.mse_validation, cur.metrics.mse_validation
-    if not (_is_number(b) and _is_number(c)):
+    if not (is_number(b) and is_number(c)):
         return []
     b, c = float(b), float(c)
     limit = mse_limit(b, tol, dy)
@@ -389,10 +301,10 @@ def mse_findings(record: str, event: int, method: str, base: FitDoc, cur: FitDoc
     change = (c - b) / b if b > 0 else math.inf
     return [Finding(
         record, event, method, "mse_growth", "mse_validation", b, c, change, tol.mse_tol,
-        message=f"{record} event {event} {method}: validation MSE grew {_pct(change)} "
-                f"({_num(b)} -> {_num(c)}; limit {_num(limit)} = (1 + "
-                f"{_pct(tol.mse_tol, sign=False)}) baseline + ({tol.param_tol:g} * step "
-                f"{_num(dy)})^2)")]
+        message=f"{record} event {event} {method}: validation MSE grew {pct_text(change)} "
+                f"({num_text(b)} -> {num_text(c)}; limit {num_text(limit)} = (1 + "
+                f"{pct_text(tol.mse_tol, sign=False)}) baseline + ({tol.param_tol:g} * step "
+                f"{num_text(dy)})^2)")]
 
 
 # -- formatting helpers ------------------------------------------------------------------
@@ -402,31 +314,11 @@ def _param_order(name: str) -> tuple[int, str]:
     return (order.index(name) if name in order else len(order), name)
 
 
-def _is_number(v) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _display(v) -> str:
-    if v is None:
-        return "-"
-    return _num(v) if _is_number(v) else str(v)
-
-
-def _num(v: float) -> str:
-    return f"{v:.4g}"
-
-
-def _pct(x: float, sign: bool = True) -> str:
-    if not math.isfinite(x):
-        return "inf" if x > 0 else "-inf"
-    return f"{x * 100:+.1f} %" if sign else f"{x * 100:.1f} %"
-
-
 def _scale_note(name: str, structure: str | None, params: Mapping[str, float]) -> str:
     if name in PARAMETERS:
         scale = param_scale(name, structure, params)
         if scale != abs(float(params.get(name, 0.0))):
-            return f", relative to {_num(scale)}"
+            return f", relative to {num_text(scale)}"
     return ""
 
 

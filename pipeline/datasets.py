@@ -1,9 +1,13 @@
 """The dataset registry: public datasets by name, fetched with a sha256 check.
 
-Resolution order for ``fetch(name)``: the local cache (``datasets/cache/NAME/FILE``), then
-the folder named by ``PIPELINE_DATASETS_MIRROR`` (``MIRROR/<mirror_path>``), then the
-official URL (decompressed when the entry says ``compression: gzip``). The sha256 is
-checked every time; the cache is written atomically.
+The registry ships inside the package (``pipeline/data/datasets.yaml``; the environment
+variable ``PIPELINE_DATASETS_REGISTRY`` names another file). Resolution order for
+``fetch(name)``: the download cache (the user's cache directory, e.g.
+``~/.cache/pipeline/datasets/NAME/FILE``, or ``PIPELINE_DATASETS_CACHE``), then the folder
+named by ``PIPELINE_DATASETS_MIRROR`` (``MIRROR/<mirror_path>``), then the official URL
+(decompressed when the entry says ``compression: gzip``). The sha256 is checked every
+time; the cache is written atomically. Works the same from a source checkout and from an
+installed wheel, from any folder.
 """
 
 from __future__ import annotations
@@ -22,7 +26,8 @@ import yaml
 from .errors import UserError
 
 MIRROR_ENV = "PIPELINE_DATASETS_MIRROR"
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
+REGISTRY_ENV = "PIPELINE_DATASETS_REGISTRY"
+CACHE_ENV = "PIPELINE_DATASETS_CACHE"
 
 
 @dataclass(frozen=True)
@@ -46,21 +51,21 @@ class Dataset:
     citation: str = ""
 
 
-def _datasets_dir() -> Path:
-    """The project's ``datasets/`` folder: beside the package (a source checkout or an
-    editable install), else in the current directory (a plain ``pip install .``)."""
-    here = PROJECT_ROOT / "datasets"
-    return here if (here / "registry.yaml").is_file() else Path.cwd() / "datasets"
-
-
 def registry_path() -> Path:
-    env = os.environ.get("PIPELINE_DATASETS_REGISTRY")
-    return Path(env) if env else _datasets_dir() / "registry.yaml"
+    """The registry file: ``$PIPELINE_DATASETS_REGISTRY``, else the one in the package."""
+    env = os.environ.get(REGISTRY_ENV)
+    return Path(env) if env else Path(__file__).resolve().parent / "data" / "datasets.yaml"
 
 
 def cache_dir() -> Path:
-    env = os.environ.get("PIPELINE_DATASETS_CACHE")
-    return Path(env) if env else _datasets_dir() / "cache"
+    """Where fetched datasets are kept: ``$PIPELINE_DATASETS_CACHE``, else the user's cache
+    directory (platformdirs)."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env)
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("pipeline", appauthor=False)) / "datasets"
 
 
 def load_registry(path: Path | None = None) -> dict[str, Dataset]:
@@ -68,8 +73,8 @@ def load_registry(path: Path | None = None) -> dict[str, Dataset]:
     try:
         raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
     except FileNotFoundError:
-        raise UserError(f"{path}: dataset registry not found; run from the project folder "
-                        "or set PIPELINE_DATASETS_REGISTRY") from None
+        raise UserError(f"{path}: dataset registry not found; set {REGISTRY_ENV} to a "
+                        "registry file") from None
     except yaml.YAMLError as exc:
         raise UserError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
     out = {}

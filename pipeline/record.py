@@ -14,10 +14,10 @@ class Record:
     """One logged experiment.
 
     ``t`` is strictly increasing (seconds), ``u`` and ``y`` are the input and output,
-    all float64 1-D arrays of equal length. ``sample_time`` is ``None`` when the grid
-    is irregular. ``initial_input`` is the input level declared to hold *before* the
-    first row (e.g. DaISy's 6.0 V): when it differs from ``u[0]`` a step happens at
-    ``t[0]`` that is invisible in the input column.
+    all float64 1-D arrays of equal length, read-only (the record owns copies).
+    ``sample_time`` is ``None`` when the grid is irregular. ``initial_input`` is the
+    input level declared to hold *before* the first row (e.g. DaISy's 6.0 V): when it
+    differs from ``u[0]`` a step happens at ``t[0]`` that is invisible in the input column.
     """
 
     t: np.ndarray
@@ -58,9 +58,7 @@ def make_record(
     notes: tuple[str, ...] = (),
 ) -> Record:
     """Validate arrays and build a :class:`Record`; a problem is a :class:`UserError`."""
-    t = np.ascontiguousarray(t, dtype=np.float64)
-    u = np.ascontiguousarray(u, dtype=np.float64)
-    y = np.ascontiguousarray(y, dtype=np.float64)
+    t, u, y = (np.array(a, dtype=np.float64, copy=True) for a in (t, u, y))
     if not (t.ndim == u.ndim == y.ndim == 1) or not (t.size == u.size == y.size):
         raise UserError(f"{source}: t, u and y must be 1-D arrays of equal length")
     if t.size < 10:
@@ -88,6 +86,8 @@ def make_record(
             f"{source}: time jumps by {dt[k]:.6g} s at data row {k + 2} while the median "
             f"interval is {med:.6g} s; split the log there or remove the gap"
         )
+    for a in (t, u, y):
+        a.setflags(write=False)  # methods get views of these; nothing may change them
     return Record(
         t=t, u=u, y=y, name=name, source=source, units=dict(units or {}),
         sample_time=infer_sample_time(t), initial_input=initial_input,

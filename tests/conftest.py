@@ -1,4 +1,6 @@
+import json
 import os
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -20,3 +22,30 @@ def _mirror(monkeypatch, tmp_path_factory):
 def have_mirror() -> bool:
     mirror = os.environ.get("PIPELINE_DATASETS_MIRROR") or str(SHARED)
     return (Path(mirror) / "daisy" / "heating_system.dat").is_file()
+
+
+@cache
+def results_schema() -> dict:
+    from pipeline.schema import json_schema
+
+    return json_schema()
+
+
+def validate_results_files(folder: Path) -> int:
+    """Validate every results.json below ``folder`` against ``pipeline schema``; how many."""
+    import jsonschema
+
+    n = 0
+    for path in folder.rglob("results.json"):
+        doc = json.loads(path.read_text(encoding="utf-8"))
+        jsonschema.validate(doc, results_schema())
+        assert doc["schema_version"] == "2", path
+        n += 1
+    return n
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _every_results_json_validates(tmp_path_factory):
+    """Every results.json any test writes validates against the shipped JSON Schema."""
+    yield
+    validate_results_files(tmp_path_factory.getbasetemp())

@@ -68,7 +68,7 @@ def fit_record(rec: Record, methods=METHODS) -> dict:
 
 
 def results_doc(plans: list[LogPlan], methods=METHODS) -> dict:
-    return {"pipeline_version": "0.1.0", "config": "configs/test.yaml",
+    return {"schema_version": "2", "pipeline_version": "0.1.0", "config": "configs/test.yaml",
             "created": "2024-01-01T00:00:00+00:00",
             "records": [record_result(p, methods) for p in plans]}
 
@@ -329,7 +329,7 @@ def test_accept_copies_atomically(tmp_path, baseline):
     (None, "not found"), ("{not json", "not valid JSON"), ('{"x": 1}', "not a results.json"),
 ])
 def test_bad_results_files_are_user_errors(tmp_path, content, expected):
-    path = tmp_path / "results.json"
+    path = tmp_path / "given.json"  # not results.json: the session check validates those
     if content is not None:
         path.write_text(content)
     with pytest.raises(UserError, match=expected):
@@ -337,3 +337,18 @@ def test_bad_results_files_are_user_errors(tmp_path, content, expected):
     with pytest.raises(UserError):
         accept(path, tmp_path / "baseline.json")
     assert not (tmp_path / "baseline.json").exists()
+
+
+def test_a_version_1_document_is_read(tmp_path, baseline):
+    """results.json of pipeline 0.1 (no schema_version, no ci95/verdict) still loads."""
+    old = json.loads(json.dumps(baseline))
+    del old["schema_version"]
+    for rec in old["records"]:
+        for f in rec["fits"]:
+            for key in ("ci95", "verdict", "flags", "events"):
+                f.pop(key, None)
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(old))
+    doc = load_results(path)
+    assert doc.schema_version == "1" and doc.records[0].fits[0].ci95 == {}
+    assert compare(baseline, doc).ok
