@@ -307,7 +307,7 @@ def datasets_synth(
     corrupt: Annotated[int, typer.Option(help="how many of the logs to corrupt")] = 0,
 ) -> None:
     """Write synthetic step-test logs with known plants (for examples and CI)."""
-    from .synth_logs import write_synthetic_logs
+    from .synth.logs import write_synthetic_logs
 
     paths = write_synthetic_logs(folder, n, seed=seed, gain_drift=gain_drift, corrupt=corrupt,
                                  noise_seed=noise_seed)

@@ -29,7 +29,7 @@ from pipeline.methods import identify
 from pipeline.record import Record
 from pipeline.report.junit import junit_xml, write_junit
 from pipeline.segment import segment
-from pipeline.synth_logs import LogPlan, log_record, plan_logs
+from pipeline.synth.logs import LogPlan, log_record, plan_logs
 from pipeline.validate import score
 
 # Strejc is left out of the fresh-noise check on purpose: for these plants (delay/T = 0.1)

@@ -11,7 +11,7 @@ from pipeline.batch import crashed, is_failure, pool_context, resolve_workers, r
 from pipeline.config import config_from_dict
 from pipeline.errors import UserError
 from pipeline.run import RecordResult, RecordSpec, process_record, resolve_specs
-from pipeline.synth_logs import plan_logs, write_synthetic_logs
+from pipeline.synth.logs import plan_logs, write_synthetic_logs
 
 N = 6
 CORRUPT = 1

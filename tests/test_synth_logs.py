@@ -6,9 +6,10 @@ import numpy as np
 import polars as pl
 import pytest
 
+from pipeline.errors import UserError
 from pipeline.events import EventData
 from pipeline.methods import identify
-from pipeline.synth_logs import (
+from pipeline.synth.logs import (
     CORRUPTIONS,
     log_record,
     night_drift,
@@ -91,9 +92,19 @@ def test_corrupt_files_are_bad_in_varied_ways(tmp_path):
             assert data.endswith(b",")
 
 
-def test_corrupt_count_is_checked(tmp_path):
-    with pytest.raises(ValueError):
-        plan_logs(2, corrupt=3)
+@pytest.mark.parametrize("kw,expected", [
+    ({"n": 2, "corrupt": 5}, "corrupt must be between 0 and n=2, got 5"),
+    ({"n": 2, "corrupt": -1}, "corrupt must be between 0 and n=2, got -1"),
+    ({"n": -1}, "n must be at least 0, got -1"),
+    ({"n": 2, "n_steps": 0}, "n_steps must be at least 1, got 0"),
+])
+def test_counts_are_checked_in_one_line(tmp_path, kw, expected):
+    with pytest.raises(UserError) as exc:
+        plan_logs(**kw)
+    assert exc.value.message == expected
+    with pytest.raises(UserError):
+        write_synthetic_logs(tmp_path, **kw)
+    assert not any(tmp_path.iterdir())  # nothing written
 
 
 def test_corrupted_files_fail_through_the_loader(tmp_path):
