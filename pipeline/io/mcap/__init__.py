@@ -1,5 +1,9 @@
 """MCAP logs as input: one numeric field of one topic is the input, another the output.
 
+Keys (``data:``, beside the common ones): ``stamp`` (the time base), ``sample_time`` (the
+common grid step, s) and ``max_gap`` (longer silences are noted, s); ``input`` and
+``output`` are ``{topic: ..., field: ...}``.
+
 Signals
     A :class:`Signal` names a topic and a field path into its decoded messages: dotted
     names, array elements by index, e.g. ``temperature.value`` or ``position[2]``. On the
@@ -37,10 +41,12 @@ from pathlib import Path
 
 import numpy as np
 from mcap.records import Channel
+from pydantic import Field
 
 from ...errors import UserError
 from ...record import Record, make_record
 from ..align import Sampled, align
+from ..base import DataSection, Format, SignalConfig, Strict
 from .decode import (
     NS,
     PATH_RE,
@@ -54,7 +60,8 @@ from .inspect import format_inspect, inspect_mcap
 from .reader import check_topics, read_series
 
 __all__ = ["Signal", "parse_signal", "parse_path", "load_mcap", "inspect_mcap",
-           "format_inspect", "JsonDecoderFactory", "decoder_factories"]
+           "format_inspect", "JsonDecoderFactory", "decoder_factories", "McapOptions",
+           "FORMAT"]
 
 SIGNAL_FORMS = "e.g. '/lamp/cmd:data' or '/plate/temp:temperature.value'"
 
@@ -194,3 +201,39 @@ def _check_options(path: Path, input: Signal, output: Signal, sample_time: float
         if value is not None and not (math.isfinite(value) and value > 0):
             raise UserError(f"{path}: {key} = {value}; expected a positive number of seconds")
 
+
+# -- the registry entry -----------------------------------------------------------------
+
+
+class McapOptions(Strict):
+    """The keys of an MCAP log: ``stamp``, ``sample_time`` and ``max_gap`` (see above)."""
+
+    stamp: str | None = None
+    sample_time: float | None = Field(None, gt=0)
+    max_gap: float | None = Field(None, gt=0)
+
+
+def load_mcap_record(path: Path, data: DataSection, options: McapOptions,
+                     name: str) -> Record:
+    """The registry's loader: :func:`load_mcap` with the ``data:`` section's signals."""
+    if not isinstance(data.input, SignalConfig) or not isinstance(data.output, SignalConfig):
+        raise UserError(
+            f"{path}: an MCAP input/output is a topic and field, e.g. "
+            "input: {topic: /lamp/cmd, field: data}"
+        )
+    return load_mcap(
+        path, Signal(data.input.topic, data.input.field),
+        Signal(data.output.topic, data.output.field), stamp=options.stamp,
+        sample_time=options.sample_time, max_gap=options.max_gap,
+        initial_input=data.initial_input, name=name, units=data.unit_map(),
+    )
+
+
+def signal_config(text: str) -> SignalConfig:
+    """A command-line ``TOPIC:FIELD`` as the ``data.input``/``data.output`` value."""
+    sig = parse_signal(text)
+    return SignalConfig(topic=sig.topic, field=sig.field)
+
+
+FORMAT = Format("mcap", (".mcap",), McapOptions, load_mcap_record,
+                parse_signal=signal_config)
