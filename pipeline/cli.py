@@ -106,7 +106,7 @@ def _data_config(file: Path, input: str, output: str, time: str | None,
     for key in given:
         if key not in fmt.keys:
             raise UserError(f"{file}: --{key.replace('_', '-')} {does_not_apply(key, fmt)}")
-    if "time" in fmt.keys and not given:
+    if "time" in fmt.keys and not given:  # a format whose time base is a column or a step
         raise UserError(f"{file}: give --time COLUMN or --sample-time SECONDS")
     try:
         return DataConfig(path=str(file), input=fmt.parse_signal(input),

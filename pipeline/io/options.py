@@ -19,6 +19,7 @@ from typing import Any, Literal
 from pydantic import create_model
 from pydantic.fields import FieldInfo
 
+from ..datasets import load_registry
 from ..errors import UserError
 from .base import DataSection, Format, SignalConfig, Strict
 from .registry import FORMATS, SUFFIXES, find_format, formats_taking
@@ -91,8 +92,6 @@ def section_formats(data: DataSection) -> list[Format] | None:
     if data.format:
         return [FORMATS[data.format]]
     if data.dataset:
-        from ..datasets import load_registry
-
         ds = load_registry().get(data.dataset)
         fmt = FORMATS.get(ds.format) if ds is not None else None
         return [fmt] if fmt is not None else None
