@@ -1,6 +1,6 @@
 """Batch scaling: the same synthetic logs processed in-process and by a local process pool.
 
-Writes ``--n`` synthetic logs (:func:`pipeline.synth_logs.write_synthetic_logs`, 4 steps
+Writes ``--n`` synthetic logs (:func:`pipeline.synth.logs.write_synthetic_logs`, 4 steps
 each, all methods) into a temporary folder, runs :func:`pipeline.batch.run_records` with
 ``workers=1`` and with ``--workers`` processes, checks that both give the same results, and
 prints a Markdown snippet with the wall times (the first pool run includes starting the
@@ -22,7 +22,7 @@ from pathlib import Path
 from pipeline.batch import run_records
 from pipeline.config import config_from_dict
 from pipeline.run import resolve_specs
-from pipeline.synth_logs import write_synthetic_logs
+from pipeline.synth.logs import write_synthetic_logs
 
 
 def timed_run(specs, cfg, workers: int) -> tuple[float, list]:

@@ -5,6 +5,8 @@
 - ``examples/jakoubek/system{1..5}.csv``: Jakoubek's five systems (seed 002 eqs. 26-30,
   gain 2) stepped 1 -> 2 at t = 3 s from y0 = 5, noise-free, 10 ms sampling, 20 s after
   the step (the ISE horizon of ERRATA [S2] 23).
+- ``examples/lamp_plate.mcap``: the ROS 2 MCAP example, a lamp heating a plate
+  (:mod:`pipeline.synth.mcap_example`; also ``python -m pipeline.synth.mcap_example``).
 """
 
 from pathlib import Path
@@ -12,6 +14,7 @@ from pathlib import Path
 import polars as pl
 
 from pipeline.synth import jakoubek_record
+from pipeline.synth.mcap_example import write_example_mcap
 
 HERE = Path(__file__).resolve().parent
 
@@ -24,6 +27,7 @@ def main() -> None:
         pl.DataFrame({"time": rec.t, "u": rec.u, "y": rec.y}).write_csv(
             out / f"system{system}.csv", float_precision=9)
         print(out / f"system{system}.csv")
+    print(write_example_mcap(HERE / "examples" / "lamp_plate.mcap"))
 
 
 if __name__ == "__main__":

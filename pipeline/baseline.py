@@ -22,7 +22,7 @@ Records are matched by ``name``, fits by ``(event, method)``. :func:`compare` re
   The factor (default 3, so 15 %) is calibrated on noise: a step test pins the gain to a
   ratio of two averaged plateaus, while the dynamics are read off a few samples of the
   transient. On first-order-plus-dead-time logs with white noise of 1 % of the step
-  (:mod:`pipeline.synth_logs`; 8 plants, 12 fresh-noise logs each, all 132 ordered
+  (:mod:`pipeline.synth.logs`; 8 plants, 12 fresh-noise logs each, all 132 ordered
   pairs, every step method), the gains stayed within 0.9 % while the time constants
   and dead times moved by up to 5 % (63 % point) and 9 % (two-point methods such as
   Viteckova's t33/t70): no drift was flagged at the defaults, and a 10 % gain drift was

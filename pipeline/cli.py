@@ -120,24 +120,22 @@ def _tolerances(items: list[str]) -> dict[str, float]:
 
 def _data_config(file: Path, input: str, output: str, time: str | None,
                  sample_time: float | None, initial_input: float | None):
-    from .config import DataConfig, SignalConfig
-
-    is_mcap = file.suffix.lower() == ".mcap"
-    if is_mcap:
-        from .io.mcap import parse_signal
-
-        i, o = parse_signal(input), parse_signal(output)
-        sig_in, sig_out = SignalConfig(topic=i.topic, field=i.field), \
-            SignalConfig(topic=o.topic, field=o.field)
-    else:
-        sig_in, sig_out = input, output
-        if time is None and sample_time is None:
-            raise UserError(f"{file}: give --time COLUMN or --sample-time SECONDS")
+    """The ``data:`` section of a one-file command; the file's format (from the registry)
+    says how ``--input``/``--output`` name a signal and which time options apply."""
     from pydantic import ValidationError
 
+    from .io import DataConfig, does_not_apply, format_of
+
+    fmt = format_of(file)
+    given = {k: v for k, v in (("time", time), ("sample_time", sample_time)) if v is not None}
+    for key in given:
+        if key not in fmt.keys:
+            raise UserError(f"{file}: --{key.replace('_', '-')} {does_not_apply(key, fmt)}")
+    if "time" in fmt.keys and not given:  # a format whose time base is a column or a step
+        raise UserError(f"{file}: give --time COLUMN or --sample-time SECONDS")
     try:
-        return DataConfig(path=str(file), input=sig_in, output=sig_out, time=time,
-                          sample_time=sample_time, initial_input=initial_input)
+        return DataConfig(path=str(file), input=fmt.parse_signal(input),
+                          output=fmt.parse_signal(output), initial_input=initial_input, **given)
     except ValidationError as exc:
         err0 = exc.errors()[0]
         opt = "--" + str(err0["loc"][0]).replace("_", "-")
@@ -338,7 +336,7 @@ def datasets_synth(
     corrupt: Annotated[int, typer.Option(help="how many of the logs to corrupt")] = 0,
 ) -> None:
     """Write synthetic step-test logs with known plants (for examples and CI)."""
-    from .synth_logs import write_synthetic_logs
+    from .synth.logs import write_synthetic_logs
 
     paths = write_synthetic_logs(folder, n, seed=seed, gain_drift=gain_drift, corrupt=corrupt,
                                  noise_seed=noise_seed)

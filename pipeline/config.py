@@ -14,38 +14,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from .errors import UserError
 from .files import read_text
+from .io.options import DataConfig, check_section
 
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class SignalConfig(_Strict):
-    """A numeric field of an MCAP topic, e.g. ``{topic: /plate/temp, field: temperature.value}``."""
-
-    topic: str
-    field: str
-
-
-class DataConfig(_Strict):
-    """Where the log is and which signals are the input and the output."""
-
-    dataset: str | None = None
-    path: str | None = Field(None, description="a file, a folder or a glob")
-    paths: list[str] | None = None
-    format: Literal["csv", "dat", "mcap"] | None = None
-    time: str | None = None
-    sample_time: float | None = Field(None, gt=0)
-    input: str | SignalConfig | None = None
-    output: str | SignalConfig | None = None
-    columns: list[str] | None = None
-    initial_input: float | None = None
-    units: dict[Literal["time", "input", "output"], str] | None = None
-    stamp: str | None = None
-    max_gap: float | None = Field(None, gt=0)
-
-    def unit_map(self) -> dict[str, str]:
-        return dict(self.units or {})
 
 
 class SegmentationConfig(_Strict):
@@ -162,3 +135,4 @@ def _check_data(cfg: RunConfig, source: str) -> None:
         raise UserError(f"{source}: key 'data': give exactly one of dataset, path or paths")
     if not d.dataset and (d.input is None or d.output is None):
         raise UserError(f"{source}: key 'data': 'input' and 'output' are required with a path")
+    check_section(d, source)

@@ -23,7 +23,8 @@ from pathlib import Path
 from .analyse import AnalysisOptions, analyse
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
-from .io import FORMATS, load_record
+from .io import SUFFIXES, load_record
+from .io.options import check_file
 from .results import RecordResult, RunResult
 from .segment import SegmentOptions
 
@@ -68,7 +69,8 @@ def analysis_options(cfg: RunConfig) -> AnalysisOptions:
 # -- resolving what to process -----------------------------------------------------------
 
 def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
-    """The records a config names; a path that matches nothing is a :class:`UserError`."""
+    """The records a config names; a path that matches nothing, or a ``data:`` key that
+    does not apply to a file's format, is a :class:`UserError`."""
     d = cfg.data
     if d.dataset:
         from .datasets import fetch
@@ -80,10 +82,10 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
     for pat in patterns:
         p = Path(os.path.normpath(pat if Path(pat).is_absolute() else base / pat))
         if p.is_dir():
-            found = sorted(f for f in p.iterdir() if f.suffix.lower() in FORMATS)
+            found = sorted(f for f in p.iterdir() if f.suffix.lower() in SUFFIXES)
         elif any(ch in pat for ch in "*?["):
             found = sorted(Path(f) for f in glob.glob(str(p), recursive=True)
-                           if Path(f).is_file() and Path(f).suffix.lower() in FORMATS)
+                           if Path(f).is_file() and Path(f).suffix.lower() in SUFFIXES)
         else:
             found = [p]
         if not found:
@@ -91,6 +93,8 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
         files.extend(found)
     if len(files) == 1 and not files[0].is_file():
         raise UserError(f"{files[0]}: file not found")
+    for f in files:
+        check_file(d, f, cfg.source)  # a key of another format: the config is wrong
     names = _unique_names(files)
     return [RecordSpec(name=n, path=str(f)) for n, f in zip(names, files, strict=True)]
 

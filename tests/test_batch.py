@@ -11,7 +11,7 @@ from pipeline.config import config_from_dict
 from pipeline.errors import UserError
 from pipeline.results import RecordResult, results_json
 from pipeline.run import RecordSpec, process_record, resolve_specs
-from pipeline.synth_logs import plan_logs, write_synthetic_logs
+from pipeline.synth.logs import plan_logs, write_synthetic_logs
 
 N = 6
 CORRUPT = 1

@@ -238,3 +238,23 @@ def test_colliding_record_names_are_made_unique(tmp_path):
     assert len(set(names)) == 3, names
     assert names == ["p1/x/r", "p2/x/r", "p1/x/r#2"]
     assert len(list((out / "plots").glob("*e0_ranking.png"))) == 3  # nothing overwritten
+
+
+def test_synth_with_too_many_corrupt_logs_is_one_line(tmp_path):
+    _one_line_error(runner.invoke(app, ["datasets", "synth", str(tmp_path / "x"), "--n", "2",
+                                        "--corrupt", "5"]), "corrupt must be between 0 and n=2")
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("extra,needle", [
+    (["--tol", "Q=0.1"], "unknown parameter 'Q'"),
+    (["--tol", "T"], "expected PARAMETER=FRACTION"),
+    (["--workers", "0"], "workers must be at least 1"),
+    (["--executor", "spark"], "unknown executor"),
+])
+def test_bad_run_options_are_one_line(tmp_path, extra, needle):
+    c = _config(tmp_path, f"name: t\ndata:\n  path: {_csv(tmp_path).name}\n  input: u\n"
+                "  output: y\n  time: time\nmethods: [first_order]\n")
+    _one_line_error(runner.invoke(app, ["run", str(c), "--out", str(tmp_path / "o"), *extra]),
+                    needle)
+    assert not (tmp_path / "o").exists()

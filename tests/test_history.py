@@ -15,7 +15,7 @@ from pipeline.history import PARAMS, append_history, history_rows, load_history,
 from pipeline.record import make_record
 from pipeline.report.history_plots import history_figures, plot_frame
 from pipeline.results import as_doc
-from pipeline.synth_logs import plan_logs, write_nights
+from pipeline.synth.logs import plan_logs, write_nights
 
 from .test_baseline import failed_record, fit_record
 

@@ -3,9 +3,8 @@
 import numpy as np
 import pytest
 
-from pipeline.config import DataConfig
 from pipeline.errors import UserError
-from pipeline.io import load_record
+from pipeline.io import DataConfig, load_record
 
 
 def _data(**kw):

@@ -501,7 +501,7 @@ def _messages(path: Path) -> list[tuple[str, int, bytes]]:
 
 
 def test_example_log(tmp_path):
-    from pipeline.io.mcap_example import EXAMPLE, write_example_mcap
+    from pipeline.synth.mcap_example import EXAMPLE, write_example_mcap
 
     path = write_example_mcap(tmp_path / "lamp_plate.mcap")
     assert path.stat().st_size < 100_000

@@ -9,7 +9,7 @@ import polars as pl
 from typer.testing import CliRunner
 
 from pipeline.cli import app
-from pipeline.synth_logs import write_nights, write_synthetic_logs
+from pipeline.synth.logs import write_nights, write_synthetic_logs
 
 runner = CliRunner()
 METHODS = "[first_order, first_order_two_point, viteckova1, sundaresan, latzel]"

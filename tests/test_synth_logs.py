@@ -6,9 +6,10 @@ import numpy as np
 import polars as pl
 import pytest
 
+from pipeline.errors import UserError
 from pipeline.methods import identify
 from pipeline.segment import event_data
-from pipeline.synth_logs import (
+from pipeline.synth.logs import (
     CORRUPTIONS,
     log_record,
     night_drift,
@@ -92,7 +93,7 @@ def test_corrupt_files_are_bad_in_varied_ways(tmp_path):
 
 
 def test_corrupt_count_is_checked(tmp_path):
-    with pytest.raises(ValueError):
+    with pytest.raises(UserError, match="corrupt must be between 0 and n=2, got 3"):
         plan_logs(2, corrupt=3)
 
 

@@ -1,4 +1,11 @@
-"""Loaders: one module per source format, all returning :class:`~pipeline.record.Record`."""
+"""Loaders: one module per input format, all returning :class:`~pipeline.record.Record`.
+
+The formats (:mod:`.registry`): ``csv`` (:mod:`.csv`), ``dat`` (:mod:`.dat`: whitespace
+numbers, no header) and ``mcap`` (:mod:`.mcap`). Each module says which ``data:`` keys it
+takes in its options model; :mod:`.options` builds the config's ``data:`` section from
+them and rejects a key of another format. :mod:`.align` puts two separately sampled
+signals onto one grid.
+"""
 
 from __future__ import annotations
 
@@ -6,58 +13,23 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..record import Record
-from .table import first_data_line, frame_to_record, read_csv_frame, read_dat_frame
-
-FORMATS = {".csv": "csv", ".dat": "dat", ".txt": "dat", ".mcap": "mcap"}
-
-
-def detect_format(path: Path, declared: str | None = None) -> str:
-    if declared:
-        return declared
-    fmt = FORMATS.get(path.suffix.lower())
-    if fmt is None:
-        raise UserError(
-            f"{path}: unknown file type {path.suffix!r}; expected .csv, .dat, .txt or .mcap "
-            "(or set data.format)"
-        )
-    return fmt
+from .base import DataSection, Format, SignalConfig
+from .options import DataConfig, does_not_apply, options_for
+from .registry import FORMATS, SUFFIXES, find_format, format_of
 
 
-def load_record(path: Path, data, name: str | None = None) -> Record:
-    """Load one file as a Record following a :class:`~pipeline.config.DataConfig`."""
+def load_record(path: Path, data: DataSection, name: str | None = None) -> Record:
+    """Load one file as a Record following a ``data:`` section (:data:`DataConfig`).
+
+    The format is ``data.format``, else the file's suffix; a key of another format is a
+    :class:`UserError`, as is every problem with the file.
+    """
     path = Path(path)
     if not path.is_file():
         raise UserError(f"{path}: file not found")
-    fmt = detect_format(path, data.format)
-    name = name or path.stem
-    units = data.unit_map()
-    if fmt == "mcap":
-        from .mcap import Signal, load_mcap
-
-        if isinstance(data.input, str) or isinstance(data.output, str):
-            raise UserError(
-                f"{path}: an MCAP input/output is a topic and field, e.g. "
-                "input: {topic: /lamp/cmd, field: data}"
-            )
-        return load_mcap(
-            path, Signal(data.input.topic, data.input.field),
-            Signal(data.output.topic, data.output.field), stamp=data.stamp,
-            sample_time=data.sample_time, max_gap=data.max_gap,
-            initial_input=data.initial_input, name=name, units=units,
-        )
-    if not isinstance(data.input, str) or not isinstance(data.output, str):
-        raise UserError(f"{path}: a {fmt} file's input and output are column names")
-    if fmt == "csv":
-        df = read_csv_frame(path)
-        offset = first_data_line(path)
-    else:
-        df = read_dat_frame(path, data.columns or ["time", "u", "y"])
-        offset = 1
-    return frame_to_record(
-        df, path, input=data.input, output=data.output, time=data.time,
-        sample_time=data.sample_time, initial_input=data.initial_input, units=units,
-        name=name, data_offset=offset,
-    )
+    fmt = format_of(path, data.format)
+    return fmt.load(path, data, options_for(data, fmt, str(path)), name or path.stem)
 
 
-__all__ = ["FORMATS", "Record", "detect_format", "load_record"]
+__all__ = ["FORMATS", "SUFFIXES", "DataConfig", "Format", "Record", "SignalConfig",
+           "does_not_apply", "find_format", "format_of", "load_record"]

@@ -1,4 +1,4 @@
-"""Synthetic plant logs with known truth, for tests, examples and benchmarks.
+"""Synthetic plants with known truth: exact responses to staircase and pulse inputs.
 
 The output is the exact response of a :class:`~pipeline.models.ProcessModel` to a
 piecewise-constant (zero-order hold) input, from a steady operating point, plus white
@@ -11,9 +11,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .models import ProcessModel
-from .record import Record, make_record
-from .simulate import simulate
+from ..models import ProcessModel
+from ..record import Record, make_record
+from ..simulate import simulate
 
 
 def staircase(t: np.ndarray, u0: float, changes: Sequence[tuple[float, float]]) -> np.ndarray:

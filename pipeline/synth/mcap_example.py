@@ -6,7 +6,7 @@
 latency. The plant is first order with dead time, ``K = 4 degC/V``, ``T = 20 s``,
 ``delay = 3 s``; the lamp steps 2.0 -> 5.0 V at 30 s and 5.0 -> 3.5 V at 160 s, from a
 plate settled at 35 degC. Deterministic (seeded): ``datasets/examples/lamp_plate.mcap`` is
-this function's output, regenerated with ``python -m pipeline.io.mcap_example``.
+this function's output, regenerated with ``python -m pipeline.synth.mcap_example``.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 from mcap_ros2.writer import Writer
 
 from ..models import ProcessModel
-from ..synth import staircase
+from .plants import staircase
 
 EXAMPLE = {
     "input": ("/lamp/cmd", "data"), "output": ("/plate/temp", "temperature.value"),

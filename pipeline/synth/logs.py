@@ -28,10 +28,11 @@ from pathlib import Path
 import numpy as np
 import polars as pl
 
-from .files import write_atomic
-from .models import ProcessModel
-from .record import Record, make_record
-from .synth import response, staircase
+from ..errors import UserError
+from ..files import write_atomic
+from ..models import ProcessModel
+from ..record import Record, make_record
+from .plants import response, staircase
 
 #: The ways a log can be bad, assigned in this order to the corrupted files.
 CORRUPTIONS: tuple[str, ...] = ("truncated", "non_numeric", "missing_output", "empty", "binary")
@@ -75,12 +76,15 @@ def plan_logs(n: int, *, seed: int = 0, noise_seed: int | None = None,
     ``spread``: K and T of each file are uniform within +-spread (relative) of the nominal
     values. ``gain_drift``: every K is multiplied by ``1 + gain_drift``. ``hold``: the
     time between steps, in nominal time constants (uniform in the range). ``corrupt``:
-    how many of the files are made bad (which ones depends on ``seed`` only).
+    how many of the files are made bad (which ones depends on ``seed`` only). A count out
+    of range is a one-line :class:`~pipeline.errors.UserError`.
     """
+    if n < 0:
+        raise UserError(f"n must be at least 0, got {n}")
     if not 0 <= corrupt <= n:
-        raise ValueError(f"corrupt must be between 0 and n={n}, got {corrupt}")
+        raise UserError(f"corrupt must be between 0 and n={n}, got {corrupt}")
     if n_steps < 1:
-        raise ValueError(f"n_steps must be at least 1, got {n_steps}")
+        raise UserError(f"n_steps must be at least 1, got {n_steps}")
     ns = seed if noise_seed is None else noise_seed
     bad = _corrupted_indices(n, corrupt, seed)
     plans = []

@@ -1,0 +1,152 @@
+"""The format registry: every format loads its example; every data key belongs to formats.
+
+The cases are tables over the registry, so a new format is covered once it is registered
+and has an entry in EXAMPLES (a missing entry fails the conformance test).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from pipeline.cli import app
+from pipeline.config import config_from_dict
+from pipeline.errors import UserError
+from pipeline.io import FORMATS, DataConfig, load_record
+from pipeline.io.options import FORMAT_KEYS
+from pipeline.run import effective_data, resolve_specs
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES_DIR = ROOT / "datasets" / "examples"
+CSV = str(EXAMPLES_DIR / "jakoubek" / "system1.csv")
+MCAP = str(EXAMPLES_DIR / "lamp_plate.mcap")
+
+#: format -> a data section that loads the format's example, and its sample count
+EXAMPLES: dict[str, tuple[dict, int]] = {
+    "csv": ({"path": CSV, "input": "u", "output": "y", "time": "time"}, 2301),
+    "dat": ({"dataset": "daisy-heating", "columns": ["time", "u", "y"]}, 801),
+    "mcap": ({"path": MCAP, "input": {"topic": "/lamp/cmd", "field": "data"},
+              "output": {"topic": "/plate/temp", "field": "temperature.value"},
+              "sample_time": 0.5, "max_gap": 5.0}, 600),
+}
+
+#: a value of the right type for every format key (to give it where it does not apply)
+VALUES = {"time": "time", "sample_time": 0.5, "columns": ["time", "u", "y"],
+          "stamp": "header.stamp", "max_gap": 5.0}
+
+
+def _load(section: dict):
+    cfg = config_from_dict({"data": section}, source="c.yaml", base_dir=str(ROOT))
+    (spec,) = resolve_specs(cfg)
+    return load_record(Path(spec.path), effective_data(cfg, spec), name=spec.name)
+
+
+@pytest.mark.parametrize("name", FORMATS)
+def test_every_format_loads_its_example(name):
+    section, n = EXAMPLES[name]
+    rec = _load(section)
+    assert rec.n_samples == n
+    assert Path(rec.source).suffix in FORMATS[name].suffixes
+
+
+def _misplaced() -> list[tuple[str, str]]:
+    """Every (format, key of another format) pair the registry makes."""
+    return [(name, key) for name, fmt in FORMATS.items() for key in FORMAT_KEYS
+            if key not in fmt.keys]
+
+
+@pytest.mark.parametrize("name,key", _misplaced())
+def test_a_key_of_another_format_is_one_line(name, key):
+    section = {**EXAMPLES[name][0], key: VALUES[key]}
+    owners = ", ".join(n for n, f in FORMATS.items() if key in f.keys)
+    expected = (f"c.yaml: key 'data.{key}' does not apply to {name} files "
+                f"(it is an option of: {owners})")
+    with pytest.raises(UserError) as exc:
+        config_from_dict({"data": section}, source="c.yaml")
+    assert exc.value.message == expected
+
+
+@pytest.mark.parametrize("section,expected", [
+    # the two wordings, pinned
+    ({"path": "logs/a.dat", "input": "u", "output": "y", "stamp": "header.stamp"},
+     "c.yaml: key 'data.stamp' does not apply to dat files (it is an option of: mcap)"),
+    ({"path": "a.mcap", "input": {"topic": "/u", "field": "data"},
+      "output": {"topic": "/y", "field": "data"}, "columns": ["t", "u", "y"]},
+     "c.yaml: key 'data.columns' does not apply to mcap files (it is an option of: dat)"),
+    # the format known from a glob's suffix, a declared format, a list of paths, a dataset
+    ({"path": "logs/*.csv", "input": "u", "output": "y", "max_gap": 2.0},
+     "c.yaml: key 'data.max_gap' does not apply to csv files (it is an option of: mcap)"),
+    ({"path": "logs/a.log", "format": "csv", "input": "u", "output": "y", "columns": ["u"]},
+     "c.yaml: key 'data.columns' does not apply to csv files (it is an option of: dat)"),
+    ({"paths": ["a.csv", "b.mcap"], "input": "u", "output": "y", "stamp": "s"},
+     "c.yaml: key 'data.stamp' does not apply to csv files (it is an option of: mcap)"),
+    ({"dataset": "daisy-heating", "stamp": "header.stamp"},
+     "c.yaml: key 'data.stamp' does not apply to dat files (it is an option of: mcap)"),
+    # a key no format takes: unknown, whatever the format
+    ({"path": "a.csv", "input": "u", "output": "y", "stamp_field": "x"},
+     "c.yaml: unknown key 'data.stamp_field'; check its spelling"),
+    ({"path": "logs/", "input": "u", "output": "y", "foo": 1},
+     "c.yaml: unknown key 'data.foo'; check its spelling"),
+    ({"dataset": "daisy-heating", "colums": ["t", "u", "y"]},
+     "c.yaml: unknown key 'data.colums'; check its spelling"),
+    # a format key's value is checked where the key is declared
+    ({"path": "logs/", "input": "u", "output": "y", "max_gap": -1},
+     "c.yaml: key 'data.max_gap': Input should be greater than 0 (got -1)"),
+    ({"path": "a.dat", "input": "u", "output": "y", "columns": []},
+     "c.yaml: key 'data.columns': List should have at least 1 item after validation, not 0 "
+     "(got [])"),
+    ({"path": "a.csv", "format": "xlsx", "input": "u", "output": "y"},
+     "c.yaml: key 'data.format': Input should be 'csv', 'dat' or 'mcap' (got 'xlsx')"),
+])
+def test_data_keys_at_config_load(section, expected):
+    with pytest.raises(UserError) as exc:
+        config_from_dict({"data": section}, source="c.yaml")
+    assert exc.value.message == expected
+
+
+def test_a_folder_is_checked_when_its_files_are_resolved(tmp_path):
+    """The format of a folder's files is known only when they are listed: then it is
+    checked, before any file is loaded."""
+    (tmp_path / "run.dat").write_text("0 1 2\n1 1 2\n")
+    cfg = config_from_dict({"data": {"path": str(tmp_path), "input": "u", "output": "y",
+                                     "stamp": "header.stamp"}}, source="c.yaml")
+    with pytest.raises(UserError) as exc:
+        resolve_specs(cfg)
+    assert exc.value.message == (
+        "c.yaml: key 'data.stamp' does not apply to dat files (it is an option of: mcap); "
+        f"the path matches {tmp_path / 'run.dat'}")
+
+
+def test_load_record_rejects_a_key_of_another_format():
+    data = DataConfig(path=MCAP, input={"topic": "/lamp/cmd", "field": "data"},
+                      output={"topic": "/plate/temp", "field": "temperature.value"},
+                      time="t")
+    with pytest.raises(UserError) as exc:
+        load_record(Path(MCAP), data)
+    assert exc.value.message == (f"{MCAP}: key 'data.time' does not apply to mcap files "
+                                 "(it is an option of: csv, dat)")
+
+
+def test_format_choices_are_the_registry():
+    schema = DataConfig.model_json_schema()["properties"]["format"]["anyOf"][0]
+    assert schema["enum"] == list(FORMATS)
+
+
+def test_cli_time_option_on_an_mcap_log_is_rejected():
+    r = CliRunner().invoke(app, ["identify", MCAP, "--input", "/lamp/cmd:data",
+                                 "--output", "/plate/temp:temperature.value", "--time", "t"])
+    assert r.exit_code == 2
+    assert r.stderr.strip() == (f"error: {MCAP}: --time does not apply to mcap files "
+                                "(it is an option of: csv, dat)")
+
+
+def test_readme_table_lists_every_format():
+    text = (ROOT / "README.md").read_text()
+    rows = {line.split("|")[1].strip(" `"): line for line in text.splitlines()
+            if line.startswith("| `")}
+    for name, fmt in FORMATS.items():
+        row = rows[name]
+        for word in (*fmt.suffixes, *fmt.keys):
+            assert f"`{word}`" in row, (name, word)
