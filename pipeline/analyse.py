@@ -1,4 +1,5 @@
-"""One record, analysed: segment, identify on the chosen events, validate on the others.
+"""One record, analysed: segment, identify on the chosen events, validate on the others,
+grade every fit.
 
 :func:`analyse` is pure (a :class:`~pipeline.record.Record` and :class:`AnalysisOptions`
 in, a :class:`~pipeline.results.RecordResult` out) and is the only analysis path: the
@@ -12,6 +13,7 @@ from dataclasses import dataclass, field, replace
 
 from .events import EventData
 from .fit import Fit
+from .grade import grade
 from .methods import identify, select_methods
 from .record import Record
 from .results import RecordResult
@@ -74,4 +76,4 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
             if fit.ok:
                 fit = replace(fit, metrics=score(fit.model, record, events, ev, validation))
             fits.append(fit)
-    return replace(base, roles=roles, fits=fits)
+    return grade(replace(base, roles=roles, fits=fits))

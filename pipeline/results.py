@@ -60,6 +60,7 @@ class RecordResult:
     fits: list[Fit] = field(default_factory=list)
     error: str | None = None
     recommendation: Recommendation | None = None
+    flags: tuple[Flag, ...] = ()  # findings about the whole log (grading)
 
     @property
     def ok(self) -> bool:
@@ -108,6 +109,7 @@ class RecordResult:
             fits=[fit_doc(f) for f in self.fits],
             best=BestDoc(method=best.method, event=best.event) if best else None,
             recommended=self._recommended_doc(),
+            flags=[flag_doc(x) for x in self.flags],
             errors=[self.error] if self.error else [],
         )
 

@@ -118,7 +118,8 @@ class RecommendedDoc(_Doc):
 
 
 class RecordDoc(_Doc):
-    """One log: what was loaded, the events found, every fit, and the recommendation."""
+    """One log: what was loaded, the events found, every fit, and the recommendation;
+    ``flags`` are findings about the whole log (they are on every fit too)."""
 
     name: str
     source: str
@@ -132,6 +133,7 @@ class RecordDoc(_Doc):
     fits: list[FitDoc] = Field(default_factory=list)
     best: BestDoc | None = None
     recommended: RecommendedDoc | None = None
+    flags: list[FlagDoc] = Field(default_factory=list)
     errors: list[str] = Field(default_factory=list)
 
 

@@ -1,0 +1,284 @@
+"""Grading: a verdict for every fit, with the reasons behind it (DESIGN.md "Validation and
+grading"). A model that is wrong must never look right.
+
+Each :class:`~pipeline.fit.Flag` has a stable code (:data:`FLAGS`), a message in plain
+words with the numbers it was decided on, and a severity. The verdict is the worst
+severity among a fit's flags: ``ok`` (none), ``warning`` (use with care: the message says
+what to check) or ``unreliable`` (do not use the model). Record-level findings (a closed
+loop, per-event gains that disagree) are attached to every fit of the record, since they
+undermine all of them.
+
+The checks are pure functions of the record, its events and the fit; every threshold is a
+named constant with its reasoning.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from .events import Event
+from .fit import Fit, Flag
+from .models import PARAMETERS
+from .record import Record
+from .results import RecordResult
+
+#: Every flag code, with what it means (the report's legend and the docs read this).
+FLAGS: dict[str, str] = {
+    "unsettled": "the window ends before the output settles: the gain is a lower bound or "
+                 "extrapolated",
+    "baseline_not_steady": "the output was still moving before the step: y0 and the gain "
+                           "are biased",
+    "overshoot_within_noise": "the oscillation the model claims is no larger than the noise",
+    "dynamics_below_sample_time": "a time constant is shorter than the sample time: the data "
+                                  "only say it is fast",
+    "delay_clipped": "the method computed a negative dead time and set it to 0",
+    "poor_fit": "the model explains less than half of the validation data's variation",
+    "negative_fit": "the model is worse than a constant on the validation data",
+    "residuals_not_white": "the model misses the data by much more than the noise: the "
+                           "structure does not explain the response",
+    "wide_ci": "a parameter's 95 % interval is wider than the parameter itself",
+    "closed_loop_suspected": "the input follows the output: the log looks closed-loop, not "
+                             "a step test",
+    "gain_inconsistent": "the events' gains disagree beyond their uncertainty: the plant is "
+                         "not linear (or not time-invariant) over the log",
+    "direction_asymmetry": "steps up and steps down give different gains",
+}
+
+SEVERITY_ORDER = ("ok", "warning", "unreliable")
+
+#: Validation NRMSE fit below this (percent) is a poor fit (half the variation unexplained).
+POOR_FIT_PERCENT = 50.0
+#: A model whose RMS misfit is this many noise sigmas off explains the data structurally
+#: wrong (with the right structure the misfit is the noise: ratio ~1).
+MISFIT_RATIO = 3.0
+#: Interval half-width above this fraction of |value| is "wide" (the sign is uncertain at 1).
+WIDE_CI = 0.5
+#: A drift before the step above this share of the step's change biases the gain visibly.
+BASELINE_DRIFT = 0.02
+#: Closed loop: the lag-0 rank correlation of input and output increments (times the gain's
+#: sign) below minus this gives a controller away (see :func:`closed_loop_flag`).
+CLOSED_LOOP_CORR = 0.3
+CLOSED_LOOP_MIN_SAMPLES = 30
+
+
+def verdict_of(flags: tuple[Flag, ...] | list[Flag]) -> str:
+    """The worst severity among ``flags`` ("ok" when there are none)."""
+    worst = 0
+    for f in flags:
+        worst = max(worst, SEVERITY_ORDER.index(f.severity))
+    return SEVERITY_ORDER[worst]
+
+
+def is_refined(method: str) -> bool:
+    """A least-squares refinement (fitted to the data) rather than a graphical reading."""
+    return method.startswith("lsq_")
+
+
+def grade(result: RecordResult) -> RecordResult:
+    """``result`` with a verdict and flags on every ok fit (pure)."""
+    if not result.ok or result.record is None:
+        return result
+    shared = record_flags(result)
+    fits = []
+    for f in result.fits:
+        if not f.ok or f.model is None:
+            fits.append(f)
+            continue
+        flags = tuple(fit_flags(f, result)) + shared
+        fits.append(replace(f, flags=flags, verdict=verdict_of(flags)))
+    return replace(result, fits=fits, flags=shared)
+
+
+# -- record level ------------------------------------------------------------------------
+
+def record_flags(result: RecordResult) -> tuple[Flag, ...]:
+    """Findings about the whole log (attached to every fit)."""
+    out = []
+    cl = closed_loop_flag(result.record, result.events)
+    if cl is not None:
+        out.append(cl)
+    return tuple(out)
+
+
+def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
+    """``closed_loop_suspected`` when the input's sample-to-sample changes follow the
+    output's changes of the same sample, against them.
+
+    A controller computes u[k] from y[k]: its increments answer the output's at lag 0
+    (proportional action on the measured output and its noise), with the sign of -K for
+    negative feedback. In an open-loop test the input is set from outside and the plant
+    answers it a sample later at the earliest (zero-order hold), so the lag-0 rank
+    correlation of (du, dy) is near 0 (|rho| < 0.05 measured on step tests with input and
+    output noise; -0.8 to -1.0 on PI loops with and without measurement noise).
+    """
+    du, dy = np.diff(record.u), np.diff(record.y)
+    moving = (du != 0) | (dy != 0)
+    if moving.sum() < CLOSED_LOOP_MIN_SAMPLES or np.std(du[moving]) == 0 \
+            or np.std(dy[moving]) == 0 or np.std(record.u) == 0 or np.std(record.y) == 0:
+        return None
+    # the gain's sign from the levels: in steady state y follows K u, open or closed loop
+    sign = float(np.sign(np.corrcoef(record.u, record.y)[0, 1])) or 1.0
+    rho = float(spearmanr(du[moving], dy[moving]).statistic)
+    if not rho * sign < -CLOSED_LOOP_CORR:
+        return None
+    return Flag(
+        "closed_loop_suspected",
+        f"The input's changes follow the output's, against them (rank correlation "
+        f"{rho:+.2f} over {int(moving.sum())} samples): the input is set by a controller, "
+        "not by a step test. Step-response readings assume the input holds its level, and "
+        "a model identified in closed loop can be biased.",
+        {"correlation": rho, "samples": int(moving.sum())})
+
+
+# -- fit level ---------------------------------------------------------------------------
+
+def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
+    """The flags of one ok fit (see :data:`FLAGS`)."""
+    rec = result.record
+    ev = result.events[fit.event]
+    checks = (_unsettled, _baseline, _below_sample_time, _delay_clipped, _fit_quality,
+              _misfit, _wide_ci, _overshoot_in_noise)
+    return [f for check in checks if (f := check(fit, ev, rec)) is not None]
+
+
+def _unit(name: str, rec: Record, fit: Fit) -> str:
+    p = PARAMETERS.get(name)
+    u = p.unit(rec.units, integrating=fit.model.spec.integrating) if p else ""
+    return f" {u}" if u else ""
+
+
+def _unsettled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    if ev.kind != "step":
+        return None
+    window = float(rec.t[ev.i_end - 1] - ev.t0)
+    if is_refined(fit.method):
+        scale = fit.model.time_scale + fit.model.delay
+        if not (math.isfinite(scale) and scale > 0) or window >= 3.0 * scale:
+            return None
+        return Flag("unsettled", f"The window after the step is {window:.3g} s, "
+                    f"{window / scale:.2g} times the model's time scale ({scale:.3g} s): the "
+                    "gain is extrapolated beyond the data.",
+                    {"window": window, "time_scale": scale})
+    if ev.settled:
+        return None
+    K = fit.model.K
+    return Flag("unsettled", f"The window ends {window:.3g} s after the step, before the "
+                f"output settles: the gain K = {K:.4g}{_unit('K', rec, fit)} is read from a "
+                "level that is still moving (a lower bound of the true gain).",
+                {"window": window, "K": K})
+
+
+def _baseline(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """A trend in the stretch before t0 larger than its noise and than BASELINE_DRIFT of the
+    change (a refined fit that carried or estimated the initial state is exempt)."""
+    if is_refined(fit.method) and fit.diagnostics.get("initial_state", "rest") != "rest":
+        return None
+    t, y = rec.t[ev.i_base:ev.i_start], rec.y[ev.i_base:ev.i_start]
+    dy = ev.y_ss - ev.y0
+    if t.size < 10 or dy == 0:
+        return None
+    slope = float(np.polyfit(t - t[0], y, 1)[0])
+    drift = abs(slope) * float(t[-1] - t[0])
+    noise_limit = 4.0 * ev.noise * math.sqrt(12.0 / t.size)  # 4 sigma of a fitted slope
+    if drift <= max(noise_limit, BASELINE_DRIFT * abs(dy)):
+        return None
+    return Flag("baseline_not_steady", f"The output drifts by {drift:.3g}"
+                f"{_unit_of_output(rec)} ({drift / abs(dy):.0%} of the step's change) over the "
+                f"{t[-1] - t[0]:.3g} s before the step: the baseline is not steady, so y0 and "
+                "the gain are biased.", {"drift": drift, "share": drift / abs(dy)})
+
+
+def _unit_of_output(rec: Record) -> str:
+    u = rec.units.get("output")
+    return f" {u}" if u else ""
+
+
+def _below_sample_time(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    dt = rec.sample_time or float(np.median(np.diff(rec.t)))
+    p = fit.model.params
+    times = {k: abs(float(p[k])) for k in p if PARAMETERS.get(k) and
+             PARAMETERS[k].kind == "time" and k != "delay" and float(p[k]) != 0.0}
+    if "wn" in p and p["wn"] > 0:
+        times["1/wn"] = 1.0 / float(p["wn"])
+    fast = {k: v for k, v in times.items() if v < dt}
+    if not fast:
+        return None
+    k, v = min(fast.items(), key=lambda kv: kv[1])
+    return Flag("dynamics_below_sample_time", f"{k} = {v:.3g} s is shorter than the sample "
+                f"time {dt:.3g} s: the data only say this part of the response is faster "
+                "than the sampling, not how fast.", {"parameter": k, "value": v,
+                                                     "sample_time": dt})
+
+
+def _delay_clipped(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    d = fit.diagnostics
+    raw = next((d[k] for k in ("delay_computed", "delay_implied")
+                if isinstance(d.get(k), int | float)), None)
+    if raw is None or raw >= 0 or fit.model.delay > 0:
+        return None
+    return Flag("delay_clipped", f"The method computed a negative dead time ({raw:.3g} s) "
+                "and set it to 0: the response starts faster than the model's shape allows.",
+                {"delay_computed": float(raw)})
+
+
+def _fit_quality(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    fp = fit.metrics.get("fit_percent", math.nan)
+    if not math.isfinite(fp):
+        return None
+    if fp < 0:
+        return Flag("negative_fit", f"Validation fit {fp:.0f} %: on the events it did not "
+                    "see, the model is worse than a constant at the mean.",
+                    {"fit_percent": fp}, severity="unreliable")
+    if fp < POOR_FIT_PERCENT:
+        return Flag("poor_fit", f"Validation fit {fp:.0f} %: the model explains less than "
+                    "half of the validation data's variation.", {"fit_percent": fp})
+    return None
+
+
+def _misfit(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    mse = fit.metrics.get("mse_identification", math.nan)
+    if not math.isfinite(mse) or ev.noise <= 0:
+        return None
+    ratio = math.sqrt(mse) / ev.noise
+    if ratio <= MISFIT_RATIO:
+        return None
+    return Flag("residuals_not_white", f"On its own event the model misses the data by "
+                f"{ratio:.1f} times the noise level (RMS {math.sqrt(mse):.3g}"
+                f"{_unit_of_output(rec)}): the residuals are structure, not noise.",
+                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": ev.noise})
+
+
+def _wide_ci(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    wide = {}
+    for k, (lo, hi) in fit.ci95.items():
+        v = float(fit.model.params.get(k, math.nan))
+        if k == "delay" or not (math.isfinite(v) and v != 0 and lo is not None and
+                                hi is not None):
+            continue
+        half = (float(hi) - float(lo)) / 2.0
+        if half > WIDE_CI * abs(v):
+            wide[k] = half / abs(v)
+    if not wide:
+        return None
+    k = max(wide, key=wide.get)
+    return Flag("wide_ci", f"The 95 % interval of {k} is ±{wide[k]:.0%} of its value: the "
+                "data do not determine it.", {"parameter": k, "relative_half_width": wide[k]})
+
+
+def _overshoot_in_noise(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    p = fit.model.params
+    if fit.model.structure != "second_order" or p["zeta"] >= 1 or ev.kind != "step":
+        return None
+    z = float(p["zeta"])
+    M = math.exp(-z * math.pi / math.sqrt(1.0 - z * z))
+    peak = M * abs(ev.y_ss - ev.y0)
+    if peak > 3.0 * ev.noise:
+        return None
+    return Flag("overshoot_within_noise", f"The model's overshoot ({peak:.3g}"
+                f"{_unit_of_output(rec)}, zeta = {z:.2g}) is within three noise sigmas "
+                f"({ev.noise:.3g}): the data do not show that oscillation.",
+                {"overshoot": peak, "noise": ev.noise, "zeta": z})
