@@ -22,9 +22,9 @@ DPI = 110
 SUMMARY_DPI = 72
 
 
-def _png(fig) -> bytes:
+def _png(fig, dpi: int = DPI) -> bytes:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)
     return buf.getvalue()
 
@@ -54,7 +54,7 @@ def _shade(ax, record: Record, events, roles, *, labels: bool) -> None:
                         color=ROLE_COLOURS[role])
 
 
-def overview(record: Record, events, roles) -> bytes:
+def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     """The whole record: output on top, input below, events shaded and numbered."""
     fig, (ax_y, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(11, 5.2),
                                      gridspec_kw={"height_ratios": [2, 1]})
@@ -68,11 +68,12 @@ def overview(record: Record, events, roles) -> bytes:
     ax_u.set_xlabel(_time_label(record))
     ax_y.legend(loc="best", fontsize=8)
     ax_y.set_title(f"{record.name}: record and events")
-    return _png(fig)
+    return _png(fig, dpi)
 
 
 def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], title: str,
-            *, events=(), roles=None, marks: list[tuple[float, float, str]] = ()) -> bytes:
+            *, events=(), roles=None, marks: list[tuple[float, float, str]] = (),
+            dpi: int = DPI) -> bytes:
     """Measured output over ``sl`` with model curves; optional read points ``marks``."""
     fig, ax = plt.subplots(figsize=(11, 4.2))
     t = record.t[sl]
@@ -92,10 +93,11 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8, ncol=2 if len(curves) > 5 else 1)
-    return _png(fig)
+    return _png(fig, dpi)
 
 
-def criterion_bars(names: list[str], values: list[float], xlabel: str, title: str) -> bytes:
+def criterion_bars(names: list[str], values: list[float], xlabel: str, title: str, *,
+                   dpi: int = DPI) -> bytes:
     """Sorted horizontal bar chart of a criterion (best at the top), log scale if spread."""
     pairs = sorted(((v, n) for n, v in zip(names, values, strict=True) if math.isfinite(v)),
                    reverse=True)
@@ -112,4 +114,4 @@ def criterion_bars(names: list[str], values: list[float], xlabel: str, title: st
     ax.set_xlabel(xlabel)
     ax.set_title(title)
     ax.grid(axis="x", alpha=0.3)
-    return _png(fig)
+    return _png(fig, dpi)

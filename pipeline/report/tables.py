@@ -1,16 +1,42 @@
-"""The report's tables, built once from the results for Markdown, HTML and the terminal.
+"""The report's tables and its Recommended box, built once from the results: the Markdown
+and the HTML report render the same :class:`Table` objects, and the terminal prints them.
 
-Number formats, labels and the parameter order come from the parameter table
-(:data:`pipeline.models.PARAMETERS`); nothing here re-lists the vocabulary.
+Number formats, labels, units and the parameter order come from the parameter table
+(:data:`pipeline.models.PARAMETERS`); method titles and publications from the registry.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
+from ..fit import Fit
+from ..grade import verdict_of
+from ..methods import REGISTRY
 from ..models import PARAMETERS, STRUCTURES
+from ..record import Record
 from ..results import RecordResult
 
+
+@dataclass(frozen=True)
+class Cell:
+    """One table cell: ``kind`` "text", "num", "code" (monospace) or "verdict" (a badge);
+    ``href`` makes it a link (an anchor in the report)."""
+
+    text: str
+    kind: str = "text"
+    href: str | None = None
+    note: str = ""  # a smaller second line (HTML) / parenthesis (Markdown)
+
+
+@dataclass(frozen=True)
+class Table:
+    columns: list[str]
+    rows: list[list[Cell]] = field(default_factory=list)
+    highlight_first: bool = False  # the first row is the answer (the best-ranked model)
+
+
+# -- numbers -----------------------------------------------------------------------------
 
 def fmt(v, digits: int = 4) -> str:
     """A number for a table cell ("-" for missing or non-finite)."""
@@ -23,15 +49,40 @@ def fmt(v, digits: int = 4) -> str:
     return str(v)
 
 
+def _ordered(params: dict) -> list[str]:
+    order = list(PARAMETERS)
+    return sorted(params, key=lambda k: order.index(k) if k in order else len(order))
+
+
 def params_text(params: dict | None) -> str:
     """``K=20.7, T=55.4, delay=3.64`` in the parameter table's order and formats (a zero
     dead time is left out)."""
     if not params:
         return "-"
-    order = list(PARAMETERS)
-    names = sorted(params, key=lambda k: order.index(k) if k in order else len(order))
-    return ", ".join(f"{k}={PARAMETERS[k].format(params[k]) if k in PARAMETERS else fmt(params[k])}"
-                     for k in names if not (k == "delay" and float(params[k]) == 0.0))
+    return ", ".join(f"{k}={_value(k, params[k])}" for k in _ordered(params)
+                     if not (k == "delay" and float(params[k]) == 0.0))
+
+
+def _value(name: str, v) -> str:
+    return PARAMETERS[name].format(v) if name in PARAMETERS else fmt(float(v))
+
+
+def unit_of(name: str, record: Record | None, structure: str | None) -> str:
+    """The unit of parameter ``name`` for this record (K per time unit for integrators)."""
+    if name not in PARAMETERS:
+        return ""
+    integrating = bool(structure and STRUCTURES[structure].integrating)
+    return PARAMETERS[name].unit(record.units if record else {}, integrating=integrating)
+
+
+def with_ci(fit: Fit, name: str) -> str:
+    """``value ± half-width`` when the fit has a 95 % interval for ``name``."""
+    v = float(fit.model.params[name])
+    ci = fit.ci95.get(name)
+    if not ci or ci[0] is None or ci[1] is None:
+        return _value(name, v)
+    half = (float(ci[1]) - float(ci[0])) / 2.0
+    return f"{_value(name, v)} ± {fmt(half, 2)}"
 
 
 def dynamics_text(structure: str | None, params: dict) -> str:
@@ -39,22 +90,119 @@ def dynamics_text(structure: str | None, params: dict) -> str:
     if not structure or structure not in STRUCTURES:
         return "-"
     names = STRUCTURES[structure].dynamics
-    return ", ".join(f"{k}={PARAMETERS[k].format(params[k])}" for k in names if k in params) \
-        or "-"
+    return ", ".join(f"{k}={_value(k, params[k])}" for k in names if k in params) or "-"
 
 
-def summary_rows(results: list[RecordResult], anchors: list[str]) -> list[dict]:
-    """One row per record: status, events, the best method and its model."""
-    rows = []
+# -- tables ------------------------------------------------------------------------------
+
+def answer(res: RecordResult) -> Fit | None:
+    """The fit a record's report leads with: the recommended one, else the ranked best."""
+    return res.recommended or res.best
+
+
+def record_verdict(res: RecordResult) -> str:
+    """"failed" for a record that could not be analysed, else the answer's verdict (with
+    the record-level flags), "unreliable" when there is no model at all."""
+    if not res.ok:
+        return "failed"
+    fit = answer(res)
+    if fit is None:
+        return "unreliable"
+    return fit.verdict or verdict_of(fit.flags + res.flags)
+
+
+def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
+    """One row per record: its verdict, events and the model to use."""
+    t = Table(["record", "verdict", "events", "model", "K", "dynamics", "delay",
+               "validation MSE", "fit %"])
     for r, anchor in zip(results, anchors, strict=True):
-        best = r.best
-        p = best.model.params if best else {}
-        rows.append({
-            "name": r.name, "anchor": anchor,
-            "status": "ok" if r.ok else "failed", "reason": r.error or "",
-            "events": len(r.events), "best": best.method if best else "-",
-            "K": PARAMETERS["K"].format(p["K"]) if "K" in p else "-",
-            "dyn": dynamics_text(best.model.structure, p) if best else "-",
-            "mse": fmt(best.metrics.get("mse_validation")) if best else "-",
-        })
-    return rows
+        fit = answer(r)
+        verdict = record_verdict(r)
+        if fit is None:
+            t.rows.append([Cell(r.name, href=f"#{anchor}"),
+                           Cell(verdict, "verdict", note=r.error or "no model"),
+                           Cell(str(len(r.events)), "num")] + [Cell("-")] * 6)
+            continue
+        p = fit.model.params
+        t.rows.append([
+            Cell(r.name, href=f"#{anchor}"), Cell(verdict, "verdict"),
+            Cell(str(len(r.events)), "num"), Cell(fit.method, "code"),
+            Cell(f"{with_ci(fit, 'K')} {unit_of('K', r.record, fit.model.structure)}".strip(),
+                 "num"),
+            Cell(dynamics_text(fit.model.structure, p)),
+            Cell(fmt(fit.model.delay), "num"),
+            Cell(fmt(fit.metrics.get("mse_validation")), "num"),
+            Cell(fmt(fit.metrics.get("fit_percent"), 3), "num"),
+        ])
+    return t
+
+
+def events_table(res: RecordResult) -> Table:
+    t = Table(["#", "kind", "role", "t0", "t_end", "u0", "u_ss", "area", "y0", "y_ss",
+               "settled"])
+    for e in res.events:
+        t.rows.append([
+            Cell(str(e.index), "num"), Cell(e.kind), Cell(res.roles.get(e.index, "-")),
+            Cell(fmt(e.t0), "num"), Cell(fmt(e.t_end), "num"), Cell(fmt(e.u0), "num"),
+            Cell(fmt(e.u_ss) if e.kind == "step" else "-", "num"),
+            Cell(fmt(e.area) if e.kind == "impulse" else "-", "num"),
+            Cell(fmt(e.y0), "num"), Cell(fmt(e.y_ss), "num"),
+            Cell("yes" if e.settled else "NO (still moving)")])
+    return t
+
+
+def ranking_table(res: RecordResult, event: int) -> Table:
+    """The ok fits of one identification event, ranked, with their verdicts."""
+    t = Table(["rank", "method", "verdict", "parameters", "transfer function", "ISE (ident.)",
+               "MSE (valid.)", "fit % (valid.)", "reference"], highlight_first=True)
+    for rank, f in enumerate(res.ranking(event), start=1):
+        m, info = f.metrics, REGISTRY.get(f.method)
+        t.rows.append([
+            Cell(str(rank), "num"), Cell(f.method, "code", note=info.title if info else ""),
+            Cell(f.verdict or "-", "verdict", note=", ".join(x.code for x in f.flags)),
+            Cell(", ".join(f"{k}={with_ci(f, k)}" for k in _ordered(f.model.params)
+                           if not (k == "delay" and f.model.delay == 0.0))),
+            Cell(f.model.text(), "code"), Cell(fmt(m.get("ise")), "num"),
+            Cell(fmt(m.get("mse_validation")), "num"),
+            Cell(fmt(m.get("fit_percent"), 3), "num"),
+            Cell(info.citation if info else "", note="")])
+    return t
+
+
+def recommended_box(res: RecordResult) -> dict | None:
+    """What the report's first box shows: the model with units and intervals, its fit, the
+    verdict and every flag in plain words, and why it was chosen."""
+    fit = answer(res)
+    if fit is None:
+        return None
+    rec, st = res.record, fit.model.structure
+    rows = Table(["parameter", "value", "unit", "95 % interval"])
+    for k in _ordered(fit.model.params):
+        ci = fit.ci95.get(k)
+        interval = (f"[{fmt(ci[0])}, {fmt(ci[1])}]" if ci and None not in ci else "-")
+        label = PARAMETERS[k].label if k in PARAMETERS else k
+        rows.rows.append([Cell(label), Cell(with_ci(fit, k), "num"),
+                          Cell(unit_of(k, rec, st)), Cell(interval, "num")])
+    info = REGISTRY.get(fit.method)
+    flags = list(fit.flags) + [f for f in res.flags if f not in fit.flags]
+    reason = (res.recommendation.reason if res.recommendation and res.recommended is fit
+              else "ranked best by the validation error (no recommendation was made)")
+    units = ", ".join(f"{k} in {unit_of(k, rec, st)}" for k in ("K", "T", "delay")
+                      if k in fit.model.params and unit_of(k, rec, st))
+    return {
+        "recommended": res.recommendation is not None and res.recommended is fit,
+        "method": fit.method, "title": info.title if info else fit.method,
+        "citation": info.citation if info else "", "event": fit.event,
+        "structure": STRUCTURES[st].formula, "tf": fit.model.text(), "units": units,
+        "params": rows, "fit": fmt(fit.metrics.get("fit_percent"), 3),
+        "mse": fmt(fit.metrics.get("mse_validation")),
+        "verdict": record_verdict(res),
+        "flags": [{"code": f.code, "message": f.message, "severity": f.severity}
+                  for f in flags],
+        "reason": reason,
+    }
+
+
+def not_ok_rows(res: RecordResult, event: int) -> list[dict]:
+    return [{"method": f.method, "status": f.status, "reason": f.reason}
+            for f in res.fits if f.event == event and not f.ok]

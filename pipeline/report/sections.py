@@ -1,0 +1,146 @@
+"""One record's part of the report: its tables, the Recommended box and its figures.
+
+:func:`record_section` is pure (a :class:`~pipeline.results.RecordResult` in, a template
+context and PNG bytes out), so a process pool can render many records at once.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..results import RecordResult
+from ..validate import event_simulation, validation_simulation
+from . import plots
+from .tables import (
+    events_table,
+    fmt,
+    not_ok_rows,
+    ranking_table,
+    recommended_box,
+)
+
+ORDER_TITLES = {"first": "first-order models", "second": "second-order models",
+                "nth": "n-th order models"}
+#: Plot modes of a report (``report.plots``): everything, one overview per record, none.
+MODES = ("full", "summary", "none")
+
+
+@dataclass
+class Figure:
+    title: str
+    png: bytes
+    file: str = ""
+
+    @property
+    def b64(self) -> str:
+        return base64.b64encode(self.png).decode("ascii")
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "record"
+
+
+def collector(files: dict[str, bytes]):
+    """``add(stem, title, png) -> Figure`` that also keeps the PNG for the Markdown report."""
+    def add(stem: str, fig_title: str, png: bytes) -> Figure:
+        name = f"plots/{slug(stem)}.png"
+        files[name] = png
+        return Figure(fig_title, png, name)
+
+    return add
+
+
+def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dict[str, bytes]]:
+    """One record's template context and its PNG files (pure; runs in a worker process
+    when the report is rendered in parallel). ``mode`` is one of :data:`MODES`."""
+    files: dict[str, bytes] = {}
+    dpi = plots.SUMMARY_DPI if mode == "summary" else plots.DPI  # many records: lighter
+    add = collector(files)
+    rec = res.record
+    ctx = {"name": res.name, "anchor": anchor, "ok": res.ok, "error": res.error,
+           "source": rec.source if rec else res.source,
+           "notes": list(rec.notes) if rec else [], "events": None, "ident": [],
+           "box": None}
+    if rec is None:
+        return ctx, files
+    ctx["meta"] = {"samples": rec.n_samples, "sample_time": fmt(rec.sample_time),
+                   "input": rec.input_name, "output": rec.output_name,
+                   "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
+    ctx["box"] = recommended_box(res)
+    ctx["events"] = events_table(res)
+    if res.events and mode != "none":
+        ctx["overview"] = add(f"{anchor}_overview", "Record with events",
+                              plots.overview(rec, res.events, res.roles, dpi=dpi))
+    for i in res.identification_events:
+        ctx["ident"].append(_ident_context(res, i, mode, add, anchor, dpi))
+    return ctx, files
+
+
+def _marks(diag: dict) -> list[tuple[float, float, str]]:
+    """The points a method read (t63/y63, ...) for drawing."""
+    out = []
+    for k, v in diag.items():
+        yk = "y" + k[1:]
+        if k.startswith("t") and yk in diag and isinstance(v, int | float) and \
+                isinstance(diag[yk], int | float):
+            out.append((float(v), float(diag[yk]), k))
+    return out
+
+
+def _ident_context(res: RecordResult, i: int, mode: str, add, anchor: str, dpi: int
+                   ) -> dict:
+    rec, ev = res.record, res.events[i]
+    validation = res.validation_events
+    ranked = res.ranking(i)
+    crit = "mse_validation" if validation else "ise"
+    out = {"index": i, "kind": ev.kind, "table": ranking_table(res, i),
+           "other": not_ok_rows(res, i),
+           "criterion": "validation MSE" if validation else "ISE on the identification event",
+           "figures": []}
+    if not ranked or mode in ("summary", "none"):
+        return out
+    unit = rec.units.get("output")
+    sq = f" [{unit}^2]" if unit else ""
+    out["figures"].append(add(f"{anchor}_e{i}_ranking", "Methods ranked", plots.criterion_bars(
+        [f.method for f in ranked], [f.metrics.get(crit, math.nan) for f in ranked],
+        f"{'validation MSE' if validation else 'ISE'}{sq if validation else ''}",
+        f"Event {i}: methods ranked by {out['criterion']} (lower is better)", dpi=dpi)))
+    sl = slice(ev.i_start, ev.i_end)
+    groups: dict[str, list] = {}
+    for f in ranked:
+        groups.setdefault(f.model.order_class, []).append(f)
+    for order in sorted(groups, key=list(ORDER_TITLES).index):
+        fits = groups[order]
+        label = ORDER_TITLES.get(order, "best model")
+        curves = [(f"{f.method}: {f.model.text(3)}", event_simulation(f.model, rec, ev))
+                  for f in fits]
+        marks = _marks(fits[0].diagnostics) if order == "first" else []
+        out["figures"].append(add(
+            f"{anchor}_e{i}_ident_{order}", f"Identification event {i}: {label}",
+            plots.overlay(rec, sl, curves, f"Identification event {i}: measured vs {label}",
+                          marks=marks, dpi=dpi)))
+        if validation:
+            out["figures"].append(add(
+                f"{anchor}_e{i}_valid_{order}", f"Validation events: {label}",
+                _validation_overlay(res, fits, validation, label, dpi)))
+    return out
+
+
+def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) -> bytes:
+    rec = res.record
+    lo = min(res.events[v].i_start for v in validation)
+    hi = max(res.events[v].i_end for v in validation)
+    curves = []
+    for f in fits:
+        y = np.full(hi - lo, np.nan)
+        for sl, sim in validation_simulation(f.model, rec, res.events, validation):
+            y[sl.start - lo : sl.stop - lo] = sim
+        curves.append((f"{f.method} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y))
+    return plots.overlay(rec, slice(lo, hi), curves,
+                         f"Validation: measured vs {label}, simulated from each run's "
+                         "operating point", events=res.events, roles=res.roles, dpi=dpi)
