@@ -12,7 +12,13 @@ from ..models import ProcessModel
 from ..signal import crossing_time, extremum, smooth
 from .base import band_exit_time, normalised
 from .registry import MethodResult, register
-from .second_order import oscillation, time_to_fraction, zeta_from_overshoot
+from .second_order import (
+    check_oscillation,
+    oscillation,
+    step_rise,
+    time_to_fraction,
+    zeta_from_overshoot,
+)
 
 #: Seed 000 exercise 2: "steady state is obtained when the signal enters the +-1 % band".
 BAND = 0.01
@@ -58,7 +64,10 @@ def second_order_pov(ev: EventData, band: float = BAND,
     with ``1/wn``.
 
     Domain: a step with an overshoot above the noise (``0 < POV < 100``) that settles
-    into the band inside the window; otherwise ``not_applicable``.
+    into the band inside the window, and an oscillation that is real
+    (:func:`~pipeline.methods.second_order.check_oscillation`: overshoot and valley
+    significant against the coloured-noise sigma, period consistent with the rise);
+    otherwise ``not_applicable``.
     """
     if ev.du == 0:
         raise NotApplicable("the input did not change")
@@ -71,6 +80,8 @@ def second_order_pov(ev: EventData, band: float = BAND,
     zeta = zeta_from_overshoot(pov / 100.0)
     ts, extrema, half_period = settling_time(tau, h, sigma, osc, band)
     t_e, frac = band_exit_time(ev)
+    check_oscillation(osc, sigma, half_period, crossing_time(tau, h, 1.0, sigma) - t_e,
+                      step_rise(zeta, half_period, frac))
     x_b = time_to_fraction(zeta, 1.0, frac)  # time to the band for wn = 1 (scales 1/wn)
     # t_s counts from the response start: wn zeta (ts - delay) = factor, delay = t_e - x_b/wn
     delay, wn = 0.0, settling_factor / (zeta * ts)
