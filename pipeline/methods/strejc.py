@@ -31,9 +31,10 @@ than ~0.5 % of records (one-sided 3 se plus the fit's small negative bias).
 The inflection tangent: noise-free, the inflection of the cubic interpolating spline
 (exact to ``O(dt^3)``: n = 4 on 1/(s+1)^4 sampled at 0.05 s and at 0.2 s). Noisy, a
 rough maximum of a Savitzky-Golay derivative, refined by a least-squares cubic through
-the raw samples within ``+-0.3/slope`` of it (about 5 % to 60 % of the rise for 2 <= n <= 10), re-centred
-up to three times; the tangent is taken at the cubic's inflection. ``Tu/Tn = m t_i - y_i`` is
-stationary in the inflection time, so only the slope ``m`` matters to first order.
+the raw samples within ``+-0.3/slope`` of it (about 5 % to 60 % of the rise for
+2 <= n <= 10), re-centred up to three times; the tangent is taken at the cubic's
+inflection. ``Tu/Tn = m t_i - y_i`` is stationary in the inflection time, so only the
+slope ``m`` matters to first order.
 
 Domain: not applicable when the output does not change measurably, never reaches 72 %
 (case a) or ``y_i`` (case b), or has no rising slope.
