@@ -25,6 +25,7 @@ from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time, smooth
 from ..simulate import simulate
+from .base import clip_delay
 from .registry import MethodResult, register
 from .second_order import check_oscillation, oscillation, zeta_from_overshoot
 
@@ -102,7 +103,8 @@ def _impulse_delay(ev: EventData, tau: np.ndarray, h: np.ndarray, y_model: np.nd
     t_e, t_b = _band_exit(tau, h, frac, sig), _band_exit(tau, y_model / a, frac, 0.0)
     if t_e is None or t_b is None:
         return 0.0, {"band_fraction": frac}
-    return max(0.0, t_e - t_b), {"t_band_exit": ev.t0 + t_e, "band_fraction": frac}
+    delay, ddiag = clip_delay(t_e - t_b)
+    return delay, {"t_band_exit": ev.t0 + t_e, "band_fraction": frac, **ddiag}
 
 
 def _band_exit(tau: np.ndarray, h: np.ndarray, frac: float, sig: float) -> float | None:

@@ -11,7 +11,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel, second_order_step
 from ..signal import crossing_time, extremum, smooth
-from .base import band_exit_time, normalised
+from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register
 
 
@@ -94,12 +94,12 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
     t_e, frac = band_exit_time(ev)
     check_oscillation(osc, sigma, T0 / 2, c0 - t_e, step_rise(zeta, T0 / 2, frac))
     t_b = time_to_fraction(zeta, wn, frac)
-    delay = max(0.0, t_e - t_b)
+    delay, ddiag = clip_delay(t_e - t_b)
     diag = {"t0": ev.t0, "t_peak1": ev.t0 + osc["t1"], "y_peak1": ev.y0 + osc["h1"] * ev.dy,
             "t_valley1": ev.t0 + osc["t2"], "y_valley1": ev.y0 + osc["h2"] * ev.dy,
             "t_peak2": ev.t0 + osc["t3"] if osc["t3"] is not None else None,
             "overshoot": M, "overshoot_ratio": M_ratio, "zeta_ratio": zeta_ratio,
-            "period": T0, "period_peaks": period_peaks, "t_band_exit": ev.t0 + t_e}
+            "period": T0, "period_peaks": period_peaks, "t_band_exit": ev.t0 + t_e, **ddiag}
     return MethodResult(
         ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn, "delay": delay}), diag)
 
