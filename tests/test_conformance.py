@@ -1,68 +1,100 @@
-"""One conformance test every registered method passes (STYLE.md 10): on any event it
-returns ok or not_applicable with a reason, never raises, never mutates its input; plus a
+"""One conformance test every registered method passes (STYLE.md 10), picked up from
+``pipeline.methods.REGISTRY`` (methods registered later are covered automatically): on a
+fixed set of events it returns ok or not_applicable with a reason, never raises, never
+mutates its input, returns a structure from its registered ``structures``; plus a
 property-based sweep over random plants (hypothesis)."""
+
+from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from pipeline.errors import NotApplicable
 from pipeline.events import EventData
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
-from pipeline.segment import event_data
-from pipeline.synth import pulse, response, staircase
+from pipeline.synth import response, staircase
+from tests.builders import flat, fo, impulse, nl, so, step, tl, truncated
 
-
-def _step(model, *, u0=1.0, u1=3.0, t0=5.0, y0=-2.0, dt=0.01, t_end=40.0, noise=0.0, seed=0):
-    t = np.arange(int(round(t_end / dt)) + 1) * dt
-    u = staircase(t, u0, [(t0, u1)])
-    y = response(model, t, u, u0, y0, noise * abs(model.K * (u1 - u0)), seed)
-    return event_data(t, u, y)
-
-
-def _impulse(model, *, u0=2.0, height=4.0, width=0.05, t0=2.0, y0=0.5, dt=0.005,
-             t_end=30.0, noise=0.0):
-    t = np.arange(int(round(t_end / dt)) + 1) * dt
-    u = pulse(t, u0, t0, width, height)
-    y = response(model, t, u, u0, y0, noise * model.K * height * width, 1)
-    return event_data(t, u, y)
-
-
+OP = dict(u0=1.0, u1=3.0, t0=5.0, y0=-2.0, dt=0.01, after=35.0)
+PULSE = dict(u0=2.0, height=4.0, width=0.05, t_on=2.0, y0=0.5, dt=0.005, t_end=30.0)
 PLANTS = {
-    "first": ProcessModel("first_order", {"K": 2.0, "T": 2.0}),
-    "fopdt": ProcessModel("first_order", {"K": 2.0, "T": 2.0, "delay": 0.7}),
-    "underdamped": ProcessModel("second_order", {"K": 0.25, "zeta": 0.31, "wn": 5.05}),
-    "two_lags": ProcessModel("two_lags", {"K": 2.0, "T1": 2.0, "T2": 0.4}),
-    "five_lags": ProcessModel("n_lags", {"K": 2.0, "T": 0.5, "n": 5}),
+    "first": fo(2.0),
+    "fopdt": fo(2.0, 0.7),
+    "underdamped": so(0.31, 5.05, K=0.25),
+    "two_lags": tl(2.0, 0.4),
+    "five_lags": nl(0.5, 5),
 }
-EVENTS = {
-    **{f"step-{k}": (lambda m=m: _step(m)) for k, m in PLANTS.items()},
-    **{f"negative-step-{k}": (lambda m=m: _step(m, u0=3.0, u1=1.0)) for k, m in PLANTS.items()},
-    "noisy-step-two-lags": lambda: _step(PLANTS["two_lags"], noise=0.01),
-    "impulse-first": lambda: _impulse(PLANTS["first"]),
-    "impulse-underdamped": lambda: _impulse(PLANTS["underdamped"]),
-    "no-change": lambda: event_data(
-        np.arange(1000) * 0.01, staircase(np.arange(1000) * 0.01, 0, [(2.0, 1.0)]),
-        np.zeros(1000), y_ss=0.0),
+
+#: The fixed event set: steps up and down, a negative gain, impulses of both signs,
+#: noise-free, white and coloured noise, no output change, short and cut windows.
+EVENTS: dict[str, Callable[[], EventData]] = {
+    **{f"step-{k}": (lambda m=m: step(m, **OP)) for k, m in PLANTS.items()},
+    **{f"step-down-{k}": (lambda m=m: step(m, **dict(OP, u0=3.0, u1=1.0)))
+       for k, m in PLANTS.items()},
+    "step-negative-gain": lambda: step(tl(2.0, 0.4, K=-3.0), **OP),
+    "step-white-noise": lambda: step(PLANTS["two_lags"], **OP, noise_rel=0.02),
+    "step-coloured-noise": lambda: step(PLANTS["first"], **OP, noise_rel=0.01, phi=0.8),
+    "step-underdamped-noisy": lambda: step(PLANTS["underdamped"], **OP, noise_rel=0.02),
+    "step-drowned": lambda: step(PLANTS["fopdt"], **OP, noise_rel=0.5, seed=3),
+    "step-short-window": lambda: step(PLANTS["first"], **dict(OP, after=0.8)),
+    "step-no-change": lambda: flat("step"),
+    "step-no-change-noisy": lambda: flat("step", noise_sd=0.01),
+    "impulse-first": lambda: impulse(PLANTS["first"], **PULSE),
+    "impulse-underdamped": lambda: impulse(PLANTS["underdamped"], **PULSE),
+    "impulse-negative": lambda: impulse(PLANTS["first"], **dict(PULSE, height=-4.0)),
+    "impulse-noisy": lambda: impulse(PLANTS["underdamped"], **PULSE, noise_rel=0.02),
+    "impulse-coloured-noise": lambda: impulse(PLANTS["first"], **PULSE, noise_rel=0.02,
+                                              phi=0.8),
+    "impulse-no-response": lambda: flat("impulse"),
+    "impulse-cut-after-peak": lambda: truncated(impulse(PLANTS["underdamped"], **PULSE),
+                                                450),
+    "impulse-no-area": lambda: replace(impulse(PLANTS["first"], **PULSE), area=0.0),
 }
 
 
 @pytest.mark.parametrize("event", list(EVENTS))
 @pytest.mark.parametrize("method", list(REGISTRY))
-def test_every_method_on_every_event(method, event):
+def test_every_method_on_every_event(method: str, event: str) -> None:
+    """ok or not_applicable with a reason, never an exception (also called directly,
+    outside :func:`identify`), never a mutated input, a registered structure, finite
+    parameters, a non-negative delay whose clipping is recorded."""
     ev = EVENTS[event]()
     arrays = [ev.t.copy(), ev.u.copy(), ev.y.copy()]
+    info = REGISTRY[method]
+    if ev.kind == info.event:
+        try:
+            info.func(ev)
+        except NotApplicable as exc:
+            assert exc.reason
     fit = identify(ev, method)
     assert fit.status in ("ok", "not_applicable"), f"{fit.status}: {fit.reason}"
     if fit.ok:
+        assert fit.model.structure in info.structures
         assert all(np.isfinite(v) for v in fit.model.params.values())
-        assert fit.model.K != 0
+        assert fit.model.K != 0 and fit.model.delay >= 0
+        assert np.all(np.isfinite(fit.model.unit_step(np.linspace(0, 10, 101))))
+        d = fit.diagnostics
+        if "delay_computed" in d:
+            assert d["delay_clipped"] == (d["delay_computed"] < 0)
+            assert fit.model.delay == (0.0 if d["delay_clipped"] else d["delay_computed"])
     else:
         assert fit.reason and len(fit.reason) > 10
+    if event.startswith(("step-no-change", "impulse-no-response", "impulse-no-area")):
+        assert fit.status == "not_applicable"
     for before, after in zip(arrays, (ev.t, ev.u, ev.y), strict=True):
         assert np.array_equal(before, after)
+
+
+def test_the_event_set_covers_every_registered_kind() -> None:
+    """A method registered later (least squares, integrating processes) is run on events
+    of its own kind: every kind the registry knows has events here."""
+    kinds = {EVENTS[e]().kind for e in EVENTS}
+    assert {m.event for m in REGISTRY.values()} <= kinds
 
 
 @st.composite

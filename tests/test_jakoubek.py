@@ -1,8 +1,10 @@
 """Seed 002 (Jakoubek) Tables 4-8 reproduced: five systems (eqs 26-30), seven methods.
 
 Each system (gain 2) is simulated noise-free at 1 ms for 25 s after a step from a
-nonzero operating point (u 1 -> 2 at t0 = 3 s, y0 = 5), segmented like any log, and
-identified. One parametrised test runs the table of cases below (STYLE.md 10):
+nonzero operating point (u 1 -> 2 at t0 = 3 s, y0 = 5) by the shared builders
+(``tests.builders.jakoubek``), segmented like any log, and identified. The table keeps
+its own shape (printed vs exact values, ERRATA notes; the other methods' cases are in
+``tests/cases.py``). One parametrised test runs it (STYLE.md 10):
 
 * ``match``: the paper's printed parameters are reproduced within 2 % (0.01 s for a time
   below 0.5 s; n exactly).
@@ -29,17 +31,14 @@ from pipeline.methods import identify
 from pipeline.methods.harriott import harriott
 from pipeline.metrics import ise
 from pipeline.models import ProcessModel
-from pipeline.record import make_record
-from pipeline.segment import event_data
-from pipeline.synth import step_record
+from pipeline.synth import JAKOUBEK_LAGS, lag_chain_step
+from tests.builders import jakoubek
 
 DT = 1e-3
-T0, U0, U1, Y0 = 3.0, 1.0, 2.0, 5.0
-AFTER = 25.0
 ISE_GRID = np.arange(20001) * DT  # 20 s after the step (ERRATA [S2] 23)
 
 #: eq. (30): five distinct lags.
-LAGS5 = (0.2, 0.4, 0.6, 0.8, 1.0)
+LAGS5 = JAKOUBEK_LAGS[5]
 
 #: eqs (26)-(29) as models; eq. (30) has no structure in models.py.
 SYSTEMS: dict[int, ProcessModel] = {
@@ -50,36 +49,14 @@ SYSTEMS: dict[int, ProcessModel] = {
 }
 
 
-def five_lag_step(t: np.ndarray) -> np.ndarray:
-    """Unit step response of 2/prod(T_i s + 1), eq. (30), by partial fractions:
-    ``2 (1 - sum_i c_i e^{-t/T_i})`` with ``c_i = T_i^4 / prod_{j != i}(T_i - T_j)``."""
-    t = np.asarray(t, dtype=np.float64)
-    out = np.zeros_like(t)
-    pos = t > 0
-    s = np.ones(int(pos.sum()))
-    for i, ti in enumerate(LAGS5):
-        c = ti ** (len(LAGS5) - 1) / np.prod([ti - tj for j, tj in enumerate(LAGS5) if j != i])
-        s -= c * np.exp(-t[pos] / ti)
-    out[pos] = 2.0 * s
-    return out
-
-
 def true_step(system: int, t: np.ndarray) -> np.ndarray:
-    return five_lag_step(t) if system == 5 else SYSTEMS[system].unit_step(t)
+    return lag_chain_step(LAGS5, t, K=2.0) if system == 5 else SYSTEMS[system].unit_step(t)
 
 
 @functools.cache
 def event(system: int) -> EventData:
     """The segmented step event of system ``system`` (cached: built once per run)."""
-    if system in SYSTEMS:
-        rec = step_record(SYSTEMS[system], u0=U0, changes=[(T0, U1)], t_end=T0 + AFTER,
-                          dt=DT, y0=Y0, name=f"jakoubek{system}")
-    else:
-        t = np.arange(int(round((T0 + AFTER) / DT)) + 1) * DT
-        u = np.where(t >= T0 - 1e-9, U1, U0)
-        y = Y0 + (U1 - U0) * five_lag_step(t - T0)
-        rec = make_record(t, u, y, name="jakoubek5", source="<eq. 30>")
-    return event_data(rec.t, rec.u, rec.y)
+    return jakoubek(system, dt=DT)
 
 
 def F(T: float, delay: float = 0.0) -> ProcessModel:
@@ -228,7 +205,10 @@ def test_system_5_response_is_exact() -> None:
         den = den * np.poly1d([ti, 1.0])
     t = np.linspace(0.0, 20.0, 2001)
     _, y = signal.step(signal.lti([2.0], den.coeffs), T=t)
-    np.testing.assert_allclose(five_lag_step(t), y, atol=1e-9)
+    np.testing.assert_allclose(true_step(5, t), y, atol=1e-9)
+    for system in SYSTEMS:  # the builder's lag chains are the systems
+        np.testing.assert_allclose(true_step(system, t),
+                                   lag_chain_step(JAKOUBEK_LAGS[system], t, K=2.0), atol=1e-9)
 
 
 def test_paper_j_is_the_ise_of_its_printed_model() -> None:

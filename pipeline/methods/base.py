@@ -4,8 +4,10 @@ The array-level toolbox (noise, smoothing, crossings, extrema) is :mod:`pipeline
 here it is applied to an :class:`~pipeline.events.EventData`:
 
 * :func:`normalised` - time since t0, fractional response and its noise level;
-* :func:`band_exit_time` / :func:`dead_time` - seed 001 "Time delay": when the output
-  leaves its noise band (ERRATA [S1] 14: the first exit of a +-max(1 %, 4 sigma) band).
+* :func:`band_exit_time` - seed 001 "Time delay": when the output leaves its noise band
+  (ERRATA [S1] 14: the first exit of a +-max(1 %, 4 sigma) band);
+* :func:`clip_delay` - a negative computed delay becomes 0, recorded as ``delay_computed``
+  and ``delay_clipped`` in every method's diagnostics.
 """
 
 from __future__ import annotations
@@ -45,10 +47,10 @@ def band_exit_time(ev: EventData, band_rel: float = 0.01, band_sigma: float = 4.
     return interp_cross(tau[i - 1], tau[i], abs(hs[i - 1]), abs(hs[i]), frac), frac
 
 
-def dead_time(ev: EventData, rise_to_band) -> tuple[float, dict]:
-    """Dead time: band exit time minus the time the undelayed model needs to reach the
-    band (``rise_to_band(frac)``); a bare band exit is late by about ``frac * T`` for a lag
-    (ERRATA [S1] 14). Never negative."""
-    t_exit, frac = band_exit_time(ev)
-    d = max(0.0, t_exit - rise_to_band(frac))
-    return d, {"t_band_exit": ev.t0 + t_exit, "band_fraction": frac}
+def clip_delay(raw: float) -> tuple[float, dict]:
+    """``(delay, diagnostics)``: a negative computed dead time becomes 0, the time
+    constants kept (ERRATA [S2] 6); the raw value is always recorded under one key for
+    every method, ``delay_computed``, with ``delay_clipped`` true when it was negative, so
+    grading can flag a clipped delay."""
+    raw = float(raw)
+    return max(0.0, raw), {"delay_computed": raw, "delay_clipped": raw < 0}

@@ -7,7 +7,7 @@ import math
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time
-from .base import band_exit_time, normalised
+from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register
 
 LEVEL_T = 0.632  # seed 001 writes 0.632 (ERRATA [S1] 13: 1 - e^-1 = 0.63212)
@@ -37,7 +37,7 @@ def first_order(ev: EventData, level: float = LEVEL_T) -> MethodResult:
     t1 = crossing_time(tau, h, level, sigma)
     t_e, frac = band_exit_time(ev)
     g = -math.log1p(-frac)
-    delay = max(0.0, (t_e - g * t1) / (1.0 - g))
+    delay, ddiag = clip_delay((t_e - g * t1) / (1.0 - g))
     T = t1 - delay
     if T <= 0:
         from ..errors import NotApplicable
@@ -45,5 +45,5 @@ def first_order(ev: EventData, level: float = LEVEL_T) -> MethodResult:
         raise NotApplicable("the 63.2 % point lies inside the dead time")
     diag = {"t0": ev.t0, "t63": ev.t0 + t1, "y63": ev.y0 + level * ev.dy,
             "t_band_exit": ev.t0 + t_e, "band_fraction": frac,
-            "settled": ev.settled}
+            "settled": ev.settled, **ddiag}
     return MethodResult(ProcessModel("first_order", {"K": K, "T": T, "delay": delay}), diag)

@@ -33,7 +33,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time, value_at
-from .base import normalised
+from .base import clip_delay, normalised
 from .charts import (
     HARRIOTT_LEVEL,
     HARRIOTT_READ_AT,
@@ -92,7 +92,7 @@ def harriott(ev: EventData, exact_x73: bool = False) -> MethodResult:
         raise NotApplicable("the 73 % point lies inside the dead time")
     t1 = delay + HARRIOTT_READ_AT * S
     y1 = value_at(tau, h, t1, sigma)
-    diag = {"t0": ev.t0, "t33": ev.t0 + t33, "t70": ev.t0 + t70, "delay_computed": raw,
+    diag = {"t0": ev.t0, "t33": ev.t0 + t33, "t70": ev.t0 + t70, **clip_delay(raw)[1],
             "t73": ev.t0 + t73, "y73": ev.y0 + HARRIOTT_LEVEL * ev.dy, "sum_T": S,
             "t1": ev.t0 + t1, "y1": ev.y0 + y1 * ev.dy, "fractional_response": y1}
     if not Y_LOW <= y1 <= Y_HIGH:

@@ -25,8 +25,9 @@ from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time, smooth
 from ..simulate import simulate
+from .base import clip_delay
 from .registry import MethodResult, register
-from .second_order import oscillation, zeta_from_overshoot
+from .second_order import check_oscillation, oscillation, zeta_from_overshoot
 
 #: Seed 001 writes 0.368 (ERRATA [S1] 13: e^-1 = 0.36788, T biased by -0.03 %).
 LEVEL_DECAY = 0.368
@@ -102,7 +103,8 @@ def _impulse_delay(ev: EventData, tau: np.ndarray, h: np.ndarray, y_model: np.nd
     t_e, t_b = _band_exit(tau, h, frac, sig), _band_exit(tau, y_model / a, frac, 0.0)
     if t_e is None or t_b is None:
         return 0.0, {"band_fraction": frac}
-    return max(0.0, t_e - t_b), {"t_band_exit": ev.t0 + t_e, "band_fraction": frac}
+    delay, ddiag = clip_delay(t_e - t_b)
+    return delay, {"t_band_exit": ev.t0 + t_e, "band_fraction": frac, **ddiag}
 
 
 def _band_exit(tau: np.ndarray, h: np.ndarray, frac: float, sig: float) -> float | None:
@@ -257,7 +259,9 @@ def second_order_impulse(ev: EventData, period: str = "crossings") -> MethodResu
 
     Domain: an impulse event with an oscillating response: a first lobe above the noise and
     at least two baseline crossings after it (else ``not_applicable``: overdamped or
-    first-order responses never cross back), with ``0 < M < 1``.
+    first-order responses never cross back), with ``0 < M < 1``, a valley significant
+    against the coloured-noise sigma and a first lobe as long as the half period
+    (:func:`~pipeline.methods.second_order.check_oscillation`).
     """
     if period not in ("crossings", "peaks"):
         raise NotApplicable(f"unknown period reading {period!r}")
@@ -285,6 +289,10 @@ def second_order_impulse(ev: EventData, period: str = "crossings") -> MethodResu
     K = r["K_area"] if use_area else r["K_lobes"]
     undelayed = ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn})
     delay, ddiag = _impulse_delay(ev, tau, h, _model_response(ev, undelayed), a, sig)
+    # after the pulse (width w, centred at w/2) the response crosses its baseline one half
+    # period after it starts: the rise must agree with the period (check_oscillation)
+    check_oscillation(osc, sig, t02 - t01, t01 - delay, t02 - t01 + ev.duration / 2,
+                      level=0.0)
     diag = {"t0": ev.t0, "baseline": base, "baseline_source": source,
             "t00": ev.t0, "t01": ev.t0 + t01, "t02": ev.t0 + t02,
             "A_plus": a * Ap, "A_minus": a * Am, "overshoot": M,

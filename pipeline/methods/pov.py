@@ -10,9 +10,15 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time, extremum, smooth
-from .base import band_exit_time, normalised
+from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register
-from .second_order import oscillation, time_to_fraction, zeta_from_overshoot
+from .second_order import (
+    check_oscillation,
+    oscillation,
+    step_rise,
+    time_to_fraction,
+    zeta_from_overshoot,
+)
 
 #: Seed 000 exercise 2: "steady state is obtained when the signal enters the +-1 % band".
 BAND = 0.01
@@ -58,7 +64,10 @@ def second_order_pov(ev: EventData, band: float = BAND,
     with ``1/wn``.
 
     Domain: a step with an overshoot above the noise (``0 < POV < 100``) that settles
-    into the band inside the window; otherwise ``not_applicable``.
+    into the band inside the window, and an oscillation that is real
+    (:func:`~pipeline.methods.second_order.check_oscillation`: overshoot and valley
+    significant against the coloured-noise sigma, period consistent with the rise);
+    otherwise ``not_applicable``.
     """
     if ev.du == 0:
         raise NotApplicable("the input did not change")
@@ -71,13 +80,19 @@ def second_order_pov(ev: EventData, band: float = BAND,
     zeta = zeta_from_overshoot(pov / 100.0)
     ts, extrema, half_period = settling_time(tau, h, sigma, osc, band)
     t_e, frac = band_exit_time(ev)
+    check_oscillation(osc, sigma, half_period, crossing_time(tau, h, 1.0, sigma) - t_e,
+                      step_rise(zeta, half_period, frac))
     x_b = time_to_fraction(zeta, 1.0, frac)  # time to the band for wn = 1 (scales 1/wn)
     # t_s counts from the response start: wn zeta (ts - delay) = factor, delay = t_e - x_b/wn
     delay, wn = 0.0, settling_factor / (zeta * ts)
+    raw = t_e - x_b / wn  # the delay the undelayed rule implies (negative: clipped)
     if ts > t_e:
         wn_d = (settling_factor - zeta * x_b) / (zeta * (ts - t_e))
-        if wn_d > 0 and t_e - x_b / wn_d > 0:
-            delay, wn = t_e - x_b / wn_d, wn_d
+        if wn_d > 0:
+            raw = t_e - x_b / wn_d
+            if raw > 0:
+                delay, wn = raw, wn_d
+    ddiag = clip_delay(raw if raw < 0 else delay)[1]
     t_settle = ts - delay
     env = math.log(1.0 / (band * math.sqrt(1.0 - zeta**2)))
     diag = {"t0": ev.t0, "pov": pov, "overshoot": pov / 100.0,
@@ -87,7 +102,7 @@ def second_order_pov(ev: EventData, band: float = BAND,
             "wn_envelope": env / (zeta * t_settle),
             "wn_period": math.pi / (half_period * math.sqrt(1.0 - zeta**2)),
             "extrema": [[ev.t0 + t, ev.y0 + v * ev.dy] for t, v in extrema],
-            "t_band_exit": ev.t0 + t_e, "band_fraction": frac}
+            "t_band_exit": ev.t0 + t_e, "band_fraction": frac, **ddiag}
     return MethodResult(
         ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn, "delay": delay}), diag)
 

@@ -11,7 +11,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel, second_order_step
 from ..signal import crossing_time, extremum, smooth
-from .base import band_exit_time, normalised
+from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register
 
 
@@ -70,7 +70,8 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
        the peak reading is kept as ``period_peaks``.
 
     Dead time: the output leaves its noise band at ``t_e``; the undelayed model needs
-    ``t_b`` to get there, ``delay = t_e - t_b``. Not applicable without an overshoot.
+    ``t_b`` to get there, ``delay = t_e - t_b``. Not applicable without an overshoot, or
+    when the oscillation is not real (:func:`check_oscillation`).
     """
     tau, h, sigma = normalised(ev)
     K = ev.dy / ev.du
@@ -91,15 +92,73 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
     T0 = 2 * (c1 - c0) if c1 > c0 else period_peaks
     wn = 2 * math.pi / (T0 * math.sqrt(1 - zeta**2))
     t_e, frac = band_exit_time(ev)
+    check_oscillation(osc, sigma, T0 / 2, c0 - t_e, step_rise(zeta, T0 / 2, frac))
     t_b = time_to_fraction(zeta, wn, frac)
-    delay = max(0.0, t_e - t_b)
+    delay, ddiag = clip_delay(t_e - t_b)
     diag = {"t0": ev.t0, "t_peak1": ev.t0 + osc["t1"], "y_peak1": ev.y0 + osc["h1"] * ev.dy,
             "t_valley1": ev.t0 + osc["t2"], "y_valley1": ev.y0 + osc["h2"] * ev.dy,
             "t_peak2": ev.t0 + osc["t3"] if osc["t3"] is not None else None,
             "overshoot": M, "overshoot_ratio": M_ratio, "zeta_ratio": zeta_ratio,
-            "period": T0, "period_peaks": period_peaks, "t_band_exit": ev.t0 + t_e}
+            "period": T0, "period_peaks": period_peaks, "t_band_exit": ev.t0 + t_e, **ddiag}
     return MethodResult(
         ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn, "delay": delay}), diag)
+
+
+#: Significance of the overshoot and of the valley, in standard deviations of a reading
+#: (see :func:`check_oscillation`).
+Z_PEAK = 3.0
+Z_VALLEY = 2.0
+#: The rise to the first crossing must agree with the period's prediction within this factor.
+RISE_FACTOR = 2.0
+
+
+def check_oscillation(osc: dict, sigma: float, half_period: float, rise: float | None = None,
+                      predicted: float | None = None, level: float = 1.0) -> None:
+    """Refuse an oscillation that is not there (not applicable, with the numbers).
+
+    1. Significance against the noise. The overshoot ``h1 - level`` and the valley depth
+       ``level - h2`` are differences of two readings of the noisy response (the extremum,
+       a local fit whose error is up to the marginal noise ``sigma`` when the noise is
+       coloured and averages poorly, and the final value), so their standard deviation is
+       up to ``sqrt(2) sigma``. The overshoot must exceed ``Z_PEAK = 3`` and the valley
+       ``Z_VALLEY = 2`` such standard deviations: for Gaussian noise a one-sided false
+       alarm below 0.14 % and 2.3 %, and both must hold. ``sigma`` is the marginal noise
+       (:func:`pipeline.signal.noise_estimate`): for coloured noise the high-frequency
+       reading is several times too small (seed 001's 3-sigma test, ERRATA [S1] 14).
+    2. The rise agrees with the period: ``rise`` (measured, from where the output starts
+       to move to the first crossing of ``level``) against ``predicted``, what an
+       oscillation of half period ``P/2`` needs (:func:`step_rise`; an impulse response
+       crosses its baseline after one half period). A measured rise more than
+       ``RISE_FACTOR = 2`` times longer or shorter is a "period" of noise riding on a slow
+       response (e.g. a 20 s wiggle after a 500 s rise), not an oscillation of the
+       process. ``rise = None`` skips the check.
+    """
+    s = math.sqrt(2.0) * sigma
+    over, valley = osc["h1"] - level, level - osc["h2"]
+    if not over > Z_PEAK * s:
+        raise NotApplicable(f"the overshoot ({over:.2%} of the change) is not significant "
+                            f"against the noise (needs > {Z_PEAK:g} x {s:.2%})")
+    if not valley > Z_VALLEY * s:
+        raise NotApplicable(f"the valley after the peak ({valley:.2%} of the change) is not "
+                            f"significant against the noise (needs > {Z_VALLEY:g} x {s:.2%}):"
+                            " no oscillation")
+    if rise is None or predicted is None:
+        return
+    if not (predicted > 0 and 1.0 / RISE_FACTOR <= rise / predicted <= RISE_FACTOR):
+        raise NotApplicable(
+            f"the period ({2 * half_period:.4g} s) is inconsistent with the response's own "
+            f"rise: the first crossing comes {rise:.4g} s after the output starts to move, "
+            f"an oscillation of that period would take {predicted:.4g} s")
+
+
+def step_rise(zeta: float, half_period: float, frac: float) -> float:
+    """Time from leaving the band ``frac`` to the first crossing of the final value, for
+    the underdamped step response of damping ``zeta`` and half period ``P/2 = pi/wd``:
+    the response crosses 1 at ``(pi - acos zeta)/wd`` (seed 000 section II: ``y = 1`` where
+    ``sin(wd t + acos zeta) = 0``), less its own time to the band."""
+    wn = math.pi / (half_period * math.sqrt(1 - zeta**2))
+    t_b = time_to_fraction(zeta, wn, frac) if frac > 0 else 0.0
+    return (1.0 - math.acos(zeta) / math.pi) * half_period - t_b
 
 
 def time_to_fraction(zeta: float, wn: float, frac: float) -> float:

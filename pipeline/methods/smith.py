@@ -21,20 +21,25 @@ No dead time: eq. (12) and the paper's tables have none (ERRATA [S2] 12).
 Domain: not applicable when ``t20/t60 >= 0.5551`` (``acos(0.8)/acos(0.4)``, the undamped
 limit): no second-order lag produces such a ratio, which is why the paper finds the
 method "doesn't suit" its 5th-order systems (ratios 0.590, 0.564; ERRATA [S2] 13). Also
-not applicable when the output does not change or never reaches 60 %.
+not applicable when the output does not change or never reaches 60 %, and when the
+underdamped branch predicts an overshoot the response does not show (a non-oscillating
+higher-order lag just below the limit would become a near-undamped oscillator).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time
+from ..signal import crossing_time, smooth
 from .base import normalised
 from .charts import SMITH_RATIO_MAX, SMITH_RATIO_MIN, smith_lookup
 from .registry import MethodResult, register
+from .second_order import Z_PEAK
 
 #: Relative tolerance on the first-order limit of t20/t60 (reading precision).
 FIRST_ORDER_TOL = 1e-5
@@ -76,6 +81,32 @@ def smith(ev: EventData) -> MethodResult:
                                           "T2": tc * math.sqrt(r), "delay": 0.0})
         return MethodResult(model, diag)
     diag["case"] = "underdamped"
+    diag |= _check_overshoot(tau, h, sigma, rd.zeta, tc)
     model = ProcessModel("second_order", {"K": K, "zeta": rd.zeta, "wn": 1.0 / tc,
                                           "delay": 0.0})
     return MethodResult(model, diag)
+
+
+def _check_overshoot(tau, h, sigma: float, zeta: float, tc: float) -> dict:
+    """The underdamped branch predicts an overshoot ``M = exp(-pi zeta/sqrt(1 - zeta^2))``
+    at ``t = pi tc/sqrt(1 - zeta^2)``; a response that does not show it is not that
+    oscillator (a higher-order lag whose t20/t60 lies just below the undamped limit, or
+    noise on the readings, would become a near-undamped model). Not applicable when the
+    predicted overshoot is significant (above ``3 sqrt(2)`` times the marginal noise,
+    the overshoot test of :func:`~pipeline.methods.second_order.check_oscillation`) and
+    the response's largest excursion above its final value is less than half of it, or
+    when the window ends before the predicted peak."""
+    M = math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta**2))
+    t_peak = math.pi * tc / math.sqrt(1.0 - zeta**2)
+    if M <= Z_PEAK * math.sqrt(2.0) * sigma:
+        return {"overshoot_predicted": M}
+    if t_peak > tau[-1]:
+        raise NotApplicable(f"zeta = {zeta:.3g} predicts an overshoot of {M:.1%} at "
+                            f"{t_peak:.4g} s, after the end of the window")
+    seen = float(np.max(smooth(h, sigma)[tau >= 0.5 * t_peak])) - 1.0
+    if seen < 0.5 * M:
+        raise NotApplicable(
+            f"t20/t60 gives zeta = {zeta:.3g}, an oscillator overshooting by {M:.1%}, but the "
+            f"response overshoots by at most {max(seen, 0.0):.1%}: it does not oscillate "
+            "(a higher-order lag near the undamped limit)")
+    return {"overshoot_predicted": M, "overshoot_seen": seen}

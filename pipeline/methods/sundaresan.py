@@ -14,7 +14,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time
-from .base import normalised
+from .base import clip_delay, normalised
 from .registry import MethodResult, register
 
 LEVEL_LOW = 0.353
@@ -41,8 +41,9 @@ def sundaresan(ev: EventData) -> MethodResult:
         raise NotApplicable("the 85.3 % point does not come after the 35.3 % point")
     raw = 1.3 * t1 - 0.29 * t2
     T = 0.67 * (t2 - t1)
-    model = ProcessModel("first_order", {"K": ev.dy / ev.du, "T": T, "delay": max(0.0, raw)})
+    delay, ddiag = clip_delay(raw)
+    model = ProcessModel("first_order", {"K": ev.dy / ev.du, "T": T, "delay": delay})
     diag = {"t0": ev.t0, "t35_3": ev.t0 + t1, "y35_3": ev.y0 + LEVEL_LOW * ev.dy,
             "t85_3": ev.t0 + t2, "y85_3": ev.y0 + LEVEL_HIGH * ev.dy,
-            "delay_computed": raw, "delay_dropped": raw < 0}
+            **ddiag}
     return MethodResult(model, diag)

@@ -10,7 +10,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time
-from .base import normalised
+from .base import clip_delay, normalised
 from .registry import MethodResult, register
 
 #: Default read points, as fractions of the output change: both on the steep, well
@@ -45,7 +45,8 @@ def first_order_two_point(ev: EventData, levels: tuple[float, float] = LEVELS
     The two points fix the dead time exactly: a delayed lag passes ``h1`` at
     ``delay + T ln(1/(1 - h1))``. A negative implied delay (a response faster than a
     first-order lag at ``h1``, e.g. noise or a different structure) is reported in the
-    diagnostics and set to zero in the model, keeping ``T`` (ERRATA [S2] 6).
+    diagnostics (``delay_computed``, ``delay_clipped``) and set to zero in the model,
+    keeping ``T`` (ERRATA [S2] 6).
 
     Domain: a step event whose output changes measurably and reaches both levels in the
     window; otherwise ``not_applicable``. Works for negative steps and any ``y0``.
@@ -63,10 +64,9 @@ def first_order_two_point(ev: EventData, levels: tuple[float, float] = LEVELS
     if not t2 > t1:
         raise NotApplicable("the two read points are not in order (response not rising)")
     T = (t2 - t1) / math.log((1.0 - h1) / (1.0 - h2))
-    delay_implied = t1 + T * math.log1p(-h1)
-    delay = max(0.0, delay_implied)
+    delay, ddiag = clip_delay(t1 + T * math.log1p(-h1))
     diag = {"t0": ev.t0, "levels": [h1, h2],
             "t_read1": ev.t0 + t1, "y_read1": ev.y0 + h1 * ev.dy,
             "t_read2": ev.t0 + t2, "y_read2": ev.y0 + h2 * ev.dy,
-            "delay_implied": delay_implied, "settled": ev.settled}
+            "settled": ev.settled, **ddiag}
     return MethodResult(ProcessModel("first_order", {"K": K, "T": T, "delay": delay}), diag)

@@ -20,7 +20,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time
-from .base import normalised
+from .base import clip_delay, normalised
 from .registry import MethodResult, register
 
 #: eq. (2)/(3): Td = a t33 - b t70, tau = c (t70 - t33), first order.
@@ -44,13 +44,13 @@ def two_point(t33: float, t70: float, constants: tuple[float, float, float]
     """``(tau, delay, raw_delay)`` from the two readings; a negative delay becomes 0."""
     a, b, c = constants
     raw = a * t33 - b * t70
-    return c * (t70 - t33), max(0.0, raw), raw
+    return c * (t70 - t33), clip_delay(raw)[0], raw
 
 
 def _diagnostics(ev: EventData, t33: float, t70: float, raw: float) -> dict:
     return {"t0": ev.t0, "t33": ev.t0 + t33, "y33": ev.y0 + 0.33 * ev.dy,
             "t70": ev.t0 + t70, "y70": ev.y0 + 0.70 * ev.dy,
-            "delay_computed": raw, "delay_dropped": raw < 0}
+            **clip_delay(raw)[1]}
 
 
 @register(id="viteckova1", event="step", structures=("first_order",),
