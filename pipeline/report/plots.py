@@ -22,7 +22,8 @@ DPI = 110
 SUMMARY_DPI = 72
 
 
-def _png(fig, dpi: int = DPI) -> bytes:
+def png_of(fig, dpi: int = DPI) -> bytes:
+    """PNG bytes of a figure (pyplot figures are closed after)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)
@@ -68,7 +69,7 @@ def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     ax_u.set_xlabel(_time_label(record))
     ax_y.legend(loc="best", fontsize=8)
     ax_y.set_title(f"{record.name}: record and events")
-    return _png(fig, dpi)
+    return png_of(fig, dpi)
 
 
 def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], title: str,
@@ -93,7 +94,7 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8, ncol=2 if len(curves) > 5 else 1)
-    return _png(fig, dpi)
+    return png_of(fig, dpi)
 
 
 def criterion_bars(names: list[str], values: list[float], xlabel: str, title: str, *,
@@ -114,4 +115,4 @@ def criterion_bars(names: list[str], values: list[float], xlabel: str, title: st
     ax.set_xlabel(xlabel)
     ax.set_title(title)
     ax.grid(axis="x", alpha=0.3)
-    return _png(fig, dpi)
+    return png_of(fig, dpi)
