@@ -114,7 +114,8 @@ def _ident_context(res: RecordResult, i: int, validation: list[int], mode: str, 
     for rank, f in enumerate(ranked, start=1):
         m = f.metrics
         rows.append({"rank": rank, "method": f.method, "title": REGISTRY[f.method].title,
-                     "params": params_text(f.model.params), "tf": f.model.text(),
+                     "params": params_text(f.model.params, rec.units, f.model.structure),
+                     "tf": f.model.text(),
                      "ise": fmt(m.get("ise")), "mse_id": fmt(m.get("mse_identification")),
                      "mse_val": fmt(m.get("mse_validation")), "fit": fmt(m.get("fit_percent"), 3),
                      "source": REGISTRY[f.method].citation})

@@ -23,15 +23,30 @@ def fmt(v, digits: int = 4) -> str:
     return str(v)
 
 
-def params_text(params: dict | None) -> str:
+def params_text(params: dict | None, units: dict | None = None,
+                structure: str | None = None) -> str:
     """``K=20.7, T=55.4, delay=3.64`` in the parameter table's order and formats (a zero
-    dead time is left out)."""
+    dead time is left out); with the record's ``units``, each value carries its unit
+    (``K=0.5 cm/V/s`` for an integrating ``structure``)."""
     if not params:
         return "-"
     order = list(PARAMETERS)
     names = sorted(params, key=lambda k: order.index(k) if k in order else len(order))
-    return ", ".join(f"{k}={PARAMETERS[k].format(params[k]) if k in PARAMETERS else fmt(params[k])}"
+    return ", ".join(f"{k}={value_text(k, params[k], units, structure)}"
                      for k in names if not (k == "delay" and float(params[k]) == 0.0))
+
+
+def value_text(name: str, value, units: dict | None = None, structure: str | None = None
+               ) -> str:
+    """One parameter value in its format, with its unit when ``units`` are given."""
+    spec = PARAMETERS.get(name)
+    if spec is None:
+        return fmt(value)
+    unit = ""
+    if units is not None:
+        integrating = structure in STRUCTURES and STRUCTURES[structure].integrating
+        unit = spec.unit(units, integrating=integrating)
+    return f"{spec.format(value)} {unit}" if unit else spec.format(value)
 
 
 def dynamics_text(structure: str | None, params: dict) -> str:
@@ -53,7 +68,8 @@ def summary_rows(results: list[RecordResult], anchors: list[str]) -> list[dict]:
             "name": r.name, "anchor": anchor,
             "status": "ok" if r.ok else "failed", "reason": r.error or "",
             "events": len(r.events), "best": best.method if best else "-",
-            "K": PARAMETERS["K"].format(p["K"]) if "K" in p else "-",
+            "K": value_text("K", p["K"], r.record.units if r.record else None,
+                            best.model.structure) if "K" in p else "-",
             "dyn": dynamics_text(best.model.structure, p) if best else "-",
             "mse": fmt(best.metrics.get("mse_validation")) if best else "-",
         })
