@@ -20,13 +20,9 @@ zero_two_lags   K (Tz s + 1) e^{-delay s} / ((T1 s + 1)(T2 s + 1))  K, Tz, T1, T
 lead_lag        K (Tz s + 1) e^{-delay s} / (T s + 1)              K, Tz, T, delay
 ==============  =================================================  ======================
 
-The gain of the two integrators is a velocity gain (output unit per input unit per time
-unit, :meth:`Parameter.unit` with ``integrating=True``). ``Tz < 0`` is a zero in the right
-half plane: an inverse response (the output first moves the wrong way). A lead-lag model
-has direct feedthrough: its step response jumps to ``K Tz/T`` at ``t = 0+``; sampled, that
-jump is seen at the sample where the (delayed) input changes, as in scipy's ZOH
-discretisation ``y[k] = C x[k] + D u[k]``, so :meth:`ProcessModel.unit_step` is
-right-continuous at the dead time.
+An integrator's gain is per time unit (:meth:`Parameter.unit`, ``integrating=True``);
+``Tz < 0`` is an inverse response; a lead-lag's step response jumps to ``K Tz/T`` at the
+dead time (:meth:`ProcessModel.unit_step` is right-continuous there, as scipy's ZOH).
 
 The unit step responses are closed forms (seed 000 section I; seed 001 "Underdamped 2nd
 order step response"; the equal-lag response is the regularised lower incomplete gamma
@@ -99,11 +95,11 @@ class Parameter:
 
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("K", "gain", "gain K", tolerance="gain"),
+    # a zero may be near 0 or change sign: its change is measured on the model's time scale
+    Parameter("Tz", "time", "zero time constant Tz", scale="time_scale"),
     Parameter("T", "time", "time constant T"),
     Parameter("T1", "time", "time constant T1", scale="dominant_lag"),
     Parameter("T2", "time", "time constant T2", scale="dominant_lag"),
-    # a zero may be near 0 or change sign: its change is measured on the model's time scale
-    Parameter("Tz", "time", "zero time constant Tz", scale="time_scale"),
     Parameter("n", "dimensionless", "order n"),
     Parameter("zeta", "dimensionless", "damping zeta", floor=0.1),
     Parameter("wn", "frequency", "natural frequency wn"),

@@ -157,5 +157,20 @@ def test_history_has_a_column_per_parameter_and_tables_show_units():
     text = params_text({"K": 0.5, "T": 4.0, "delay": 1.0}, units, "integrator_lag")
     assert text == "K=0.5 cm/V/s, T=4 s, delay=1 s"
     text = params_text({"K": 2.0, "Tz": -3.0, "T1": 8.0, "T2": 2.0}, units, "zero_two_lags")
-    assert text == "K=2 cm/V, T1=8 s, T2=2 s, Tz=-3 s"
+    assert text == "K=2 cm/V, Tz=-3 s, T1=8 s, T2=2 s"
     assert params_text({"K": 2.0, "T": 5.0}) == "K=2, T=5"  # no units known: as before
+
+
+@pytest.mark.parametrize("delay", [0.0, 2 * DT, 2.5 * DT])
+def test_lead_lag_feedthrough_is_seen_at_the_step_sample(delay):
+    """scipy's ZOH convention y[k] = C x[k] + D u[k]: the jump K Tz/T du appears at the
+    sample where the (delayed) step arrives, on the lfilter and the pulse-response path
+    alike (a fractional delay moves it to the next sample)."""
+    m = ProcessModel("lead_lag", {"K": 2.0, "Tz": 6.0, "T": 3.0, "delay": delay})
+    t = np.arange(40) * DT
+    u = np.where(np.arange(40) >= 10, 2.0, 1.0)
+    y = simulate(m, t, u, 1.0, 0.0)
+    k = 10 + math.ceil(delay / DT - 1e-9)
+    tau = t[k] - t[10] - delay
+    assert y[k - 1] == 0.0
+    assert y[k] == pytest.approx(2.0 + 2.0 * math.exp(-tau / 3.0))  # K (1 - (1 - Tz/T) e^..)

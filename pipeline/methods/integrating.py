@@ -71,6 +71,14 @@ LAG_CHI2 = 9.0
 MAX_PASSES = 20
 
 
+def _integrator(K: float, T: float, lag: float, chi2: float, dt: float) -> ProcessModel:
+    """``K e^{-(lag - T) s}/(s (T s+1))``, or the pure integrator ``K e^{-lag s}/s`` when
+    the lag is not resolved (``chi2`` at most :data:`LAG_CHI2`, or ``T`` within a sample)."""
+    if chi2 <= LAG_CHI2 or T <= dt:
+        return ProcessModel("integrator", {"K": K, "delay": lag})
+    return ProcessModel("integrator_lag", {"K": K, "T": T, "delay": lag - T})
+
+
 @register(id="integrator_asymptote", event="step", structures=("integrator_lag", "integrator"),
           references=("astrom2006",),
           source="Åström & Hägglund 2006 (integrating model K_v e^{-sL}/s from the "
@@ -125,11 +133,7 @@ def integrator_asymptote(ev: EventData) -> MethodResult:
     diag = {"t0": ev.t0, "slope": s + ev.drift, "drift": ev.drift, "slope_se": se,
             "t_intercept": ev.t0 + intercept, "y_intercept": ev.y0 + ev.drift * intercept,
             "T_plus_delay": intercept, "T_gap": math.e * r_i / s, "lag_chi2": chi2}
-    if chi2 <= LAG_CHI2 or T <= dt:
-        model = ProcessModel("integrator", {"K": K, "delay": intercept})
-    else:
-        model = ProcessModel("integrator_lag", {"K": K, "T": T, "delay": L})
-    return MethodResult(model, diag)
+    return MethodResult(_integrator(K, T, intercept, chi2, dt), diag)
 
 
 def _bend_cost(tau: np.ndarray, r: np.ndarray, s: float, intercept: float):
@@ -202,10 +206,7 @@ def integrator_pulse(ev: EventData) -> MethodResult:
     dt = float(np.median(np.diff(tau)))
     diag = {"t0": ev.t0, "area": ev.area, "level_shift": shift, "t_centroid": ev.t0 + t_c,
             "first_moment": ev.t0 + M, "T_plus_delay": lag, "lag_chi2": chi2}
-    if chi2 <= LAG_CHI2 or T <= dt:
-        return MethodResult(ProcessModel("integrator", {"K": K, "delay": lag}), diag)
-    return MethodResult(ProcessModel("integrator_lag", {"K": K, "T": T, "delay": lag - T}),
-                        diag)
+    return MethodResult(_integrator(K, T, lag, chi2, dt), diag)
 
 
 def _pulse_cost(t: np.ndarray, u: np.ndarray, u0: float, r: np.ndarray, K: float,

@@ -49,12 +49,12 @@ def value_text(name: str, value, units: dict | None = None, structure: str | Non
     return f"{spec.format(value)} {unit}" if unit else spec.format(value)
 
 
-def dynamics_text(structure: str | None, params: dict) -> str:
+def dynamics_text(structure: str | None, params: dict, units: dict | None = None) -> str:
     """The dynamic parameters of a model (the structure table says which they are)."""
     if not structure or structure not in STRUCTURES:
         return "-"
     names = STRUCTURES[structure].dynamics
-    return ", ".join(f"{k}={PARAMETERS[k].format(params[k])}" for k in names if k in params) \
+    return ", ".join(f"{k}={value_text(k, params[k], units)}" for k in names if k in params) \
         or "-"
 
 
@@ -64,13 +64,13 @@ def summary_rows(results: list[RecordResult], anchors: list[str]) -> list[dict]:
     for r, anchor in zip(results, anchors, strict=True):
         best = r.best
         p = best.model.params if best else {}
+        units = r.record.units if r.record else None
         rows.append({
             "name": r.name, "anchor": anchor,
             "status": "ok" if r.ok else "failed", "reason": r.error or "",
             "events": len(r.events), "best": best.method if best else "-",
-            "K": value_text("K", p["K"], r.record.units if r.record else None,
-                            best.model.structure) if "K" in p else "-",
-            "dyn": dynamics_text(best.model.structure, p) if best else "-",
+            "K": value_text("K", p["K"], units, best.model.structure) if "K" in p else "-",
+            "dyn": dynamics_text(best.model.structure, p, units) if best else "-",
             "mse": fmt(best.metrics.get("mse_validation")) if best else "-",
         })
     return rows
