@@ -226,20 +226,21 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
         else:  # the previous window's final ramp goes on (0 if it settled or shifted)
             drift, e_drift = prev_ramp
         y_line = y0 + drift * (t[r.k] - float(np.mean(t[i_base : r.k]))) if drift else y0
-        shape = _Shape(t[r.k : end], y[r.k : end], y_line, drift, e_drift, noise, opt)
-        if r.kind == "step":
-            response = shape.ramp()
-            settled = settled or response == "ramp"
-        else:
-            response, settled = shape.level_shift(settled)
+        w = _window(t[r.k : end], y[r.k : end], y_line, drift, e_drift, noise)
+        response = "settling"
+        if w is not None and r.kind == "step" and _is_ramp(w, opt):
+            response, settled = "ramp", True
+        elif w is not None and r.kind == "impulse" and not settled:
+            shifted, still = _level_shift(w, opt)
+            response, settled = ("level_shift", still) if shifted else ("settling", False)
         if response != "settling":
             y0 = y_line
-        prev_ramp = (shape.slope, shape.e_half) if response == "ramp" else (0.0, 0.0)
+        prev_ramp = (w.slope, w.e_slope) if response == "ramp" else (0.0, 0.0)
         events.append(Event(
             index=idx, kind=r.kind, i_start=r.k, i_end=end, i_base=i_base, t0=float(t[r.k]),
             t_end=float(t[end - 1]), u0=float(u0), u_ss=float(u_ss), y0=float(y0),
             y_ss=y_ss, area=area, duration=dur, settled=bool(settled), noise=noise,
-            response=response, slope=shape.slope, drift=drift,
+            response=response, slope=w.slope if w is not None else 0.0, drift=drift,
         ))
     return events
 
@@ -265,59 +266,71 @@ def _drift(t: np.ndarray, y: np.ndarray, sigma: float, min_span: float,
     return (slope, se) if abs(slope) > 4 * se else (0.0, 0.0)
 
 
-class _Shape:
-    """Step 6 of the module docstring: is a window a ramp, a level shift, or settling?"""
+@dataclass(frozen=True)
+class _Window:
+    """The readings of step 6 on one event window: the response ``r`` (output less the
+    baseline line extrapolated from t0), its mean over the last tenth, and the output's
+    slope over the last half with its standard error."""
 
-    def __init__(self, t, y, y0, drift, e_drift, noise, opt: SegmentOptions) -> None:
-        self.t, self.y, self.drift, self.e_drift, self.noise, self.opt = (
-            t, y, drift, e_drift, noise, opt)
-        n = t.size
-        self.ok = n >= 40
-        h = n // 2
-        self.slope, self.e_half = _line(t[h:], y[h:], noise) if self.ok else (0.0, math.inf)
-        self.span = float(t[-1] - t[h]) if self.ok else 0.0
-        m = max(3, n // 10)
-        # the response: the output less the baseline line extrapolated from t0
-        self.r = y - y0 - drift * (t - t[0])
-        self.r_end = float(np.mean(self.r[-m:])) if n else 0.0
+    t: np.ndarray
+    r: np.ndarray
+    r_end: float
+    slope: float
+    e_slope: float
+    drift: float
+    e_drift: float
+    noise: float
 
-    def ramp(self) -> str:
-        if not self.ok:
-            return "settling"
-        t, r, n, opt = self.t, self.r, self.t.size, self.opt
-        h, m = n // 2, max(3, n // 10)
-        d = self.slope - self.drift
-        sign = math.copysign(1.0, self.r_end)
-        changed = d * sign > 5 * math.hypot(self.e_half, self.e_drift)
-        # (b) the slope does not fall over the last half: y = c0 + c1 x + c2 x^2 there
-        x = t[h:] - 0.5 * (t[h] + t[-1])
-        X = np.stack([np.ones_like(x), x, x * x], axis=1)
-        c, *_ = np.linalg.lstsq(X, r[h:], rcond=None)
-        e_c2 = self.noise * math.sqrt(float(np.linalg.inv(X.T @ X)[2, 2]))
-        fall = -2.0 * c[2] * self.span * sign  # slope lost across the last half
-        steady = fall <= opt.ramp_slope_tol * abs(d) + 1.5 * 2.0 * e_c2 * self.span
-        # (c) the last half rises at least as fast as the whole window on average
-        r_mid = float(np.mean(r[max(0, h - m // 2) : h - m // 2 + m]))
-        lead = sign * (2.0 * (self.r_end - r_mid) - opt.ramp_rate * self.r_end)
-        e_lead = self.noise * math.sqrt((2.0 - opt.ramp_rate) ** 2 / m + 4.0 / m)
-        convex = lead >= -3 * e_lead
-        return "ramp" if changed and steady and convex else "settling"
+    @property
+    def span(self) -> float:
+        """Duration of the last half."""
+        return float(self.t[-1] - self.t[self.t.size // 2])
 
-    def level_shift(self, back_at_baseline: bool) -> tuple[str, bool]:
-        """``(response, settled)`` of an impulse window."""
-        if not self.ok or back_at_baseline or self.r_end == 0:
-            return "settling", back_at_baseline
-        rs = smooth(self.r, self.noise / max(float(np.max(np.abs(self.r))), 1e-300))
-        sign = math.copysign(1.0, self.r_end)
-        reach, other = float(np.max(sign * rs)), float(np.max(-sign * rs))
-        moving = sign * (self.slope - self.drift) * self.span  # away from the baseline
-        still = max(0.05 * abs(self.r_end),
-                    4 * math.hypot(self.e_half, self.e_drift) * self.span)
-        stays = abs(self.r_end) >= self.opt.level_share * reach and moving >= -still
-        one_way = other <= 0.2 * abs(self.r_end) + 3 * self.noise
-        if stays and one_way:
-            return "level_shift", moving <= still
-        return "settling", False
+
+def _window(t, y, y0, drift, e_drift, noise) -> _Window | None:
+    """Step 6 readings, or None for a window too short to tell (fewer than 40 samples)."""
+    if t.size < 40:
+        return None
+    h, m = t.size // 2, max(3, t.size // 10)
+    r = y - y0 - drift * (t - t[0])
+    slope, e_slope = _line(t[h:], y[h:], noise)
+    return _Window(t, r, float(np.mean(r[-m:])), slope, e_slope, drift, e_drift, noise)
+
+
+def _is_ramp(w: _Window, opt: SegmentOptions) -> bool:
+    """Step 6 (a)-(c) for a step window."""
+    n = w.t.size
+    h, m = n // 2, max(3, n // 10)
+    d = w.slope - w.drift
+    sign = math.copysign(1.0, w.r_end)
+    changed = d * sign > 5 * math.hypot(w.e_slope, w.e_drift)
+    # (b) the slope does not fall over the last half: r = c0 + c1 x + c2 x^2 there
+    x = w.t[h:] - 0.5 * (w.t[h] + w.t[-1])
+    X = np.stack([np.ones_like(x), x, x * x], axis=1)
+    c, *_ = np.linalg.lstsq(X, w.r[h:], rcond=None)
+    e_c2 = w.noise * math.sqrt(float(np.linalg.inv(X.T @ X)[2, 2]))
+    fall = -2.0 * c[2] * w.span * sign  # slope lost across the last half
+    steady = fall <= opt.ramp_slope_tol * abs(d) + 1.5 * 2.0 * e_c2 * w.span
+    # (c) the last half rises at least ramp_rate as fast as the whole window on average
+    r_mid = float(np.mean(w.r[max(0, h - m // 2) : h - m // 2 + m]))
+    lead = sign * (2.0 * (w.r_end - r_mid) - opt.ramp_rate * w.r_end)
+    e_lead = w.noise * math.sqrt(((2.0 - opt.ramp_rate) ** 2 + 4.0) / m)
+    return changed and steady and lead >= -3 * e_lead
+
+
+def _level_shift(w: _Window, opt: SegmentOptions) -> tuple[bool, bool]:
+    """``(is a level shift, settled)`` for an impulse window that is not back at its
+    baseline (step 6)."""
+    if w.r_end == 0:
+        return False, False
+    rs = smooth(w.r, w.noise / max(float(np.max(np.abs(w.r))), 1e-300))
+    sign = math.copysign(1.0, w.r_end)
+    reach, other = float(np.max(sign * rs)), float(np.max(-sign * rs))
+    moving = sign * (w.slope - w.drift) * w.span  # away from the baseline
+    still = max(0.05 * abs(w.r_end), 4 * math.hypot(w.e_slope, w.e_drift) * w.span)
+    stays = abs(w.r_end) >= opt.level_share * reach and moving >= -still
+    one_way = other <= 0.2 * abs(w.r_end) + 3 * w.noise
+    return stays and one_way, stays and one_way and moving <= still
 
 
 def _head(y: np.ndarray, sigma: float) -> np.ndarray:

@@ -181,3 +181,14 @@ def test_inverse_method_needs_an_undershoot():
     assert fit.status == "not_applicable" and "no undershoot" in fit.reason
     fit = identify(step_event(INT_LAG, 0, noise=RAMP_NOISE), "inverse_response")
     assert fit.status == "not_applicable" and "integrating" in fit.reason
+
+
+def test_integrator_without_delay():
+    """An ideal tank: no lag, no dead time (readings within their noise of t0)."""
+    model = ProcessModel("integrator", {"K": 0.5})
+    for seed in SEEDS:
+        fit = identify(step_event(model, seed, noise=RAMP_NOISE), "integrator_asymptote")
+        assert fit.model.structure == "integrator" and _rel(fit, model, "K") < 0.02
+        assert fit.model.delay <= DT
+        fit = identify(pulse_event(model, seed, noise=0.02), "integrator_pulse")
+        assert fit.ok and _rel(fit, model, "K") < 0.03

@@ -102,8 +102,9 @@ def integrator_asymptote(ev: EventData) -> MethodResult:
        integrator with ``delay = T + L``.
 
     Domain: a step whose window ends on a steady ramp (``response == "ramp"``);
-    a settling (self-regulating) response is not applicable, as is a ramp that does not
-    cross its initial level after t0 (``T + L < 0``).
+    a settling (self-regulating) response is not applicable, as is a ramp whose asymptote
+    does not cross the initial level between t0 (within a sample) and the middle of the
+    window.
     """
     if ev.response != "ramp":
         raise NotApplicable(f"the output does not end on a steady ramp (response "
@@ -111,14 +112,15 @@ def integrator_asymptote(ev: EventData) -> MethodResult:
     if ev.du == 0:
         raise NotApplicable("the input did not change")
     tau, r = _response(ev)
-    half = float(tau[tau.size // 2])
+    half, dt = float(tau[tau.size // 2]), float(np.median(np.diff(tau)))
     T, L, start, gap = 0.0, 0.0, half, np.zeros_like(r)
     for _ in range(MAX_PASSES):
         s, intercept, se = _asymptote(tau, r, tau >= start, gap)
-        if not 0 <= intercept < half:
+        if not -dt <= intercept < half:
             raise NotApplicable(f"the ramp's asymptote crosses the initial level at "
                                 f"{intercept:.3g} s after t0, not inside the first half "
                                 "of the window")
+        intercept = max(intercept, 0.0)  # within a sample of t0: no dead time, no lag
         bend = tau <= max(start, intercept + 3 * T)
         T, chi2 = _lag_fit(_bend_cost(tau[bend], r[bend], s, intercept), intercept, ev.noise)
         moved = abs(intercept - T - L) if L else math.inf
@@ -127,7 +129,6 @@ def integrator_asymptote(ev: EventData) -> MethodResult:
         gap = s * T * np.exp(-np.maximum(tau - L, 0.0) / T) if T > 0 else np.zeros_like(r)
         if moved <= 1e-9 * intercept:
             break
-    dt = float(np.median(np.diff(tau)))
     r_i = float(np.interp(intercept, tau, smooth(r, ev.noise / max(abs(r[-1]), 1e-300))))
     K = s / ev.du
     diag = {"t0": ev.t0, "slope": s + ev.drift, "drift": ev.drift, "slope_se": se,
@@ -184,7 +185,10 @@ def integrator_pulse(ev: EventData) -> MethodResult:
     u = u_in - ev.u0
     dt_k = np.diff(tau, append=tau[-1])  # the input is held over each interval (ZOH)
     t_c = float(np.sum((tau + dt_k / 2) * u * dt_k) / np.sum(u * dt_k))
-    h = tau.size // 2
+    h, dt = tau.size // 2, float(np.median(np.diff(tau)))
+    # noise of the area between level and response: the samples' own, and the level's
+    # (the mean of the last half) times the window
+    e_moment = ev.noise * (dt * math.sqrt(tau.size) + float(tau[-1]) / math.sqrt(tau.size - h))
     unit = np.ones_like(r)  # the normalised response of the current model (none yet)
     T, chi2 = 0.0, 0.0
     for _ in range(3):
@@ -194,16 +198,16 @@ def integrator_pulse(ev: EventData) -> MethodResult:
         M = float(np.sum((gap[1:] + gap[:-1]) * np.diff(tau)) / 2) / shift  # smooth output
         M += T * (1.0 - float(unit[-1]))  # the lag's exponential tail beyond the window
         lag = M - t_c
-        if not lag >= 0:
+        if not lag >= -max(dt, 3 * e_moment / abs(shift)):
             raise NotApplicable(f"the response's first moment ({M:.3g} s) comes before "
                                 f"the pulse's ({t_c:.3g} s)")
+        lag = max(lag, 0.0)  # within its noise of the pulse's: no dead time, no lag
         T, chi2 = _lag_fit(_pulse_cost(t, u_in, ev.u0, r, shift / ev.area, lag), lag,
                            ev.noise)
         unit = simulate(ProcessModel("integrator_lag", {"K": 1.0 / ev.area, "T": T,
                                                         "delay": lag - T}),
                         t, u_in, ev.u0, 0.0)
     K = shift / ev.area
-    dt = float(np.median(np.diff(tau)))
     diag = {"t0": ev.t0, "area": ev.area, "level_shift": shift, "t_centroid": ev.t0 + t_c,
             "first_moment": ev.t0 + M, "T_plus_delay": lag, "lag_chi2": chi2}
     return MethodResult(_integrator(K, T, lag, chi2, dt), diag)
