@@ -7,9 +7,10 @@ Records are matched by ``name``, fits by ``(event, method)``. :func:`compare` re
   The change is relative, ``(current - baseline) / scale``, where ``scale`` is
   ``|baseline|`` except for parameters whose baseline may sensibly be zero or tiny:
 
-  - ``delay`` is compared with the fit's time scale (the mean residence time of its lags:
-    ``T``, ``T1 + T2``, ``n T``, ``max(2 zeta, 1)/wn``), so a dead time of 0.0 that
-    becomes 0.05 s on a 5 s lag is a 1 % change, not an infinite one;
+  - ``delay`` and ``Tz`` are compared with the fit's time scale (the mean residence time
+    of its lags: ``T``, ``T1 + T2``, ``n T``, ``max(2 zeta, 1)/wn``, plus ``-Tz`` for an
+    inverse response; for an integrator the lag of its ramp, ``T + delay``), so a dead
+    time of 0.0 that becomes 0.05 s on a 5 s lag is a 1 % change, not an infinite one;
   - ``T1``, ``T2`` are compared with the dominant lag ``max(T1, T2)``: a minor lag a
     tenth of the main one is poorly determined by a step, so its change is measured in
     units of the main lag;
@@ -260,7 +261,9 @@ def step_response_distance(structure_a: str | None, params_a: Mapping[str, float
                            n_points: int = 2001) -> float:
     """``max_t |S_b(t) - S_a(t)| / |K_a|`` over the unit-step responses (inf if unknown).
 
-    The horizon is ten time scales plus the longer dead time, so both have settled.
+    The horizon is ten time scales plus the longer dead time, so both have settled. Two
+    integrating models are compared relative to the rise of ramp ``a`` over the horizon,
+    ``|S_a(t_end)|``; an integrating and a self-regulating one are infinitely far apart.
     """
     try:
         a = ProcessModel(str(structure_a), {k: float(v) for k, v in params_a.items()})
@@ -268,10 +271,12 @@ def step_response_distance(structure_a: str | None, params_a: Mapping[str, float
     except (ValueError, TypeError):
         return math.inf
     ts = max(time_scale(a.structure, a.params), time_scale(b.structure, b.params))
-    if not math.isfinite(ts) or ts <= 0 or a.K == 0:
+    if not math.isfinite(ts) or ts <= 0 or a.K == 0 or a.integrating != b.integrating:
         return math.inf
     t = np.linspace(0.0, 10.0 * ts + max(a.delay, b.delay), n_points)
-    return float(np.max(np.abs(b.unit_step(t) - a.unit_step(t))) / abs(a.K))
+    sa = a.unit_step(t)
+    scale = abs(sa[-1]) if a.integrating else abs(a.K)
+    return float(np.max(np.abs(b.unit_step(t) - sa)) / scale)
 
 
 # -- validation MSE ----------------------------------------------------------------------

@@ -36,6 +36,9 @@ class Event:
     duration: float = 0.0  # impulse: how long the input stayed off its baseline
     settled: bool = True
     noise: float = 0.0  # output noise standard deviation estimate
+    response: str = "settling"  # "settling" | "ramp" | "level_shift" (pipeline.segment)
+    slope: float = 0.0  # output slope over the last half of the window (units/s)
+    drift: float = 0.0  # output slope before t0 (units/s; 0 unless significant)
 
     def to_dict(self) -> dict:
         return {
@@ -44,7 +47,8 @@ class Event:
             "u0": self.u0, "u_ss": self.u_ss, "y0": self.y0, "y_ss": self.y_ss,
             "area": self.area if self.kind == "impulse" else None,
             "duration": self.duration if self.kind == "impulse" else None,
-            "settled": self.settled, "noise": self.noise,
+            "settled": self.settled, "noise": self.noise, "response": self.response,
+            "slope": self.slope, "drift": self.drift,
         }
 
 
@@ -53,6 +57,9 @@ class EventData:
     """The arrays and operating point of one event, as a method sees them.
 
     ``t, u, y`` cover the settled baseline before ``t0`` and the event window after it.
+    ``response``, ``slope`` and ``drift`` say whether the output settles, ramps or shifts
+    its level, and how fast it moves at the end of the window and before ``t0``
+    (:mod:`pipeline.segment` step 6).
     """
 
     kind: str
@@ -69,6 +76,9 @@ class EventData:
     noise: float = 0.0
     settled: bool = True
     index: int = 0
+    response: str = "settling"
+    slope: float = 0.0
+    drift: float = 0.0
 
     @classmethod
     def from_event(cls, record, event: Event) -> EventData:
@@ -77,7 +87,7 @@ class EventData:
             kind=event.kind, t=record.t[sl], u=record.u[sl], y=record.y[sl], t0=event.t0,
             u0=event.u0, u_ss=event.u_ss, y0=event.y0, y_ss=event.y_ss, area=event.area,
             duration=event.duration, noise=event.noise, settled=event.settled,
-            index=event.index,
+            index=event.index, response=event.response, slope=event.slope, drift=event.drift,
         )
 
     # -- views a method needs -----------------------------------------------------------

@@ -14,7 +14,15 @@ first_order     K e^{-delay s} / (T s + 1)                         K, T, delay
 second_order    K wn^2 e^{-delay s} / (s^2 + 2 zeta wn s + wn^2)   K, zeta, wn, delay
 two_lags        K e^{-delay s} / ((T1 s + 1)(T2 s + 1))            K, T1, T2, delay
 n_lags          K e^{-delay s} / (T s + 1)^n  (n may be non-integer)  K, T, n, delay
+integrator      K e^{-delay s} / s                                 K, delay
+integrator_lag  K e^{-delay s} / (s (T s + 1))                     K, T, delay
+zero_two_lags   K (Tz s + 1) e^{-delay s} / ((T1 s + 1)(T2 s + 1))  K, Tz, T1, T2, delay
+lead_lag        K (Tz s + 1) e^{-delay s} / (T s + 1)              K, Tz, T, delay
 ==============  =================================================  ======================
+
+An integrator's gain is per time unit (:meth:`Parameter.unit`, ``integrating=True``);
+``Tz < 0`` is an inverse response; a lead-lag's step response jumps to ``K Tz/T`` at the
+dead time (:meth:`ProcessModel.unit_step` is right-continuous there, as scipy's ZOH).
 
 The unit step responses are closed forms (seed 000 section I; seed 001 "Underdamped 2nd
 order step response"; the equal-lag response is the regularised lower incomplete gamma
@@ -29,6 +37,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.special import gammainc
+
+from .responses import (
+    integrator_lag_step,
+    lead_lag_step,
+    second_order_step,
+    two_lag_impulse,
+    two_lag_step,
+    zero_lags_time_scale,
+)
 
 # =====================================================================================
 # Parameters
@@ -87,6 +104,8 @@ class Parameter:
 
 PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("K", "gain", "gain K", tolerance="gain"),
+    # a zero may be near 0 or change sign: its change is measured on the model's time scale
+    Parameter("Tz", "time", "zero time constant Tz", scale="time_scale"),
     Parameter("T", "time", "time constant T"),
     Parameter("T1", "time", "time constant T1", scale="dominant_lag"),
     Parameter("T2", "time", "time constant T2", scale="dominant_lag"),
@@ -95,33 +114,6 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("wn", "frequency", "natural frequency wn"),
     Parameter("delay", "time", "dead time", scale="time_scale"),
 )}
-
-
-# =====================================================================================
-# Step responses (unit gain, no delay, t > 0)
-# =====================================================================================
-
-def two_lag_step(t: np.ndarray, T1: float, T2: float) -> np.ndarray:
-    """Unit step response of 1/((T1 s+1)(T2 s+1)); equal lags and T2 = 0 handled exactly."""
-    T1, T2 = max(T1, T2), min(T1, T2)
-    if T2 <= 0:
-        return -np.expm1(-t / T1) if T1 > 0 else np.ones_like(t)
-    if abs(T1 - T2) <= 1e-9 * T1:
-        return gammainc(2.0, t / T1)
-    return 1.0 - (T1 * np.exp(-t / T1) - T2 * np.exp(-t / T2)) / (T1 - T2)
-
-
-def second_order_step(t: np.ndarray, zeta: float, wn: float) -> np.ndarray:
-    """Unit step response of wn^2/(s^2+2 zeta wn s+wn^2) (seed 001, underdamped formula)."""
-    if zeta < 1:
-        wd = wn * math.sqrt(1 - zeta**2)
-        return 1.0 - np.exp(-zeta * wn * t) * (
-            np.cos(wd * t) + zeta / math.sqrt(1 - zeta**2) * np.sin(wd * t)
-        )
-    if zeta == 1:
-        return gammainc(2.0, wn * t)
-    r = math.sqrt(zeta**2 - 1)
-    return two_lag_step(t, 1 / (wn * (zeta - r)), 1 / (wn * (zeta + r)))
 
 
 def _second_order_lags(p: Mapping[str, float]) -> list[float]:
@@ -153,12 +145,16 @@ Params = Mapping[str, float]
 class Structure:
     """One model structure: its parameters and everything derived from them.
 
-    ``step(p, t)``: the unit-gain step response of the rational part at times ``t > 0``
-    (the model adds K and the delay). ``num_den(p)``: numerator and denominator in
-    descending powers of s, gain included (None when there is no rational form, e.g. a
-    non-integer n). ``time_scale(p)``: the sum of the time constants (mean residence
-    time), the horizon the gate and the simulator measure against. ``bounds``: physical
-    limits of each parameter (refinement searches inside them).
+    ``step(p, t)``: the unit-gain step response of the rational part at times ``t >= 0``
+    (``t = 0`` means 0+; the model adds K and the delay). ``num_den(p)``: numerator and
+    denominator in descending powers of s, gain included (None when there is no rational
+    form, e.g. a non-integer n). ``time_scale(p)``: the sum of the time constants (mean
+    residence time; with a right-half-plane zero ``- Tz`` is added), the horizon the gate
+    measures against. An integrating structure (``integrating=True``: the step response
+    ramps, the gain is per time unit) has no residence time; its time scale is how far
+    the final ramp lags an ideal integrator, ``T + delay`` (where the ramp's asymptote
+    crosses the initial level). ``bounds``: physical limits of each parameter
+    (refinement searches inside them).
     """
 
     name: str
@@ -229,6 +225,52 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
         lags=lambda p: [p["T"]] * int(p["n"]) if float(p["n"]).is_integer() else [],
         bounds={**_BOUNDS_DELAY, "T": _POSITIVE, "n": (1.0, 20.0)},
     ),
+    Structure(
+        "integrator", ("K", "delay"), "K e^{-delay s}/s",
+        step=lambda p, t: np.asarray(t, dtype=np.float64),
+        num_den=lambda p: ([p["K"]], [1.0, 0.0]),
+        text=lambda p, d: f"{_g(p['K'], d)}/s",
+        time_scale=lambda p: abs(p.get("delay", 0.0)),
+        order_class=lambda p: "first",
+        bounds=dict(_BOUNDS_DELAY),
+        integrating=True,
+    ),
+    Structure(
+        "integrator_lag", ("K", "T", "delay"), "K e^{-delay s}/(s(T s+1))",
+        step=lambda p, t: integrator_lag_step(t, p["T"]),
+        num_den=lambda p: ([p["K"]], [p["T"], 1.0, 0.0]),
+        text=lambda p, d: f"{_g(p['K'], d)}/(s({_g(p['T'], d)}s+1))",
+        time_scale=lambda p: abs(p["T"]) + abs(p.get("delay", 0.0)),
+        order_class=lambda p: "second",
+        lags=lambda p: [p["T"]],
+        bounds={**_BOUNDS_DELAY, "T": _POSITIVE},
+        integrating=True,
+    ),
+    Structure(
+        "zero_two_lags", ("K", "Tz", "T1", "T2", "delay"),
+        "K (Tz s+1) e^{-delay s}/((T1 s+1)(T2 s+1))",
+        step=lambda p, t: (two_lag_step(t, p["T1"], p["T2"])
+                           + p["Tz"] * two_lag_impulse(t, p["T1"], p["T2"])),
+        num_den=lambda p: ([p["K"] * p["Tz"], p["K"]],
+                           [p["T1"] * p["T2"], p["T1"] + p["T2"], 1.0]),
+        text=lambda p, d: (f"{_g(p['K'], d)}({_g(p['Tz'], d)}s+1)/(({_g(p['T1'], d)}s+1)"
+                           f"({_g(p['T2'], d)}s+1))"),
+        time_scale=lambda p: zero_lags_time_scale(abs(p["T1"]) + abs(p["T2"]), p["Tz"]),
+        order_class=lambda p: "second",
+        lags=lambda p: [p["T1"], p["T2"]],
+        bounds={**_BOUNDS_DELAY, "Tz": (-math.inf, math.inf), "T1": _POSITIVE,
+                "T2": _POSITIVE},
+    ),
+    Structure(
+        "lead_lag", ("K", "Tz", "T", "delay"), "K (Tz s+1) e^{-delay s}/(T s+1)",
+        step=lambda p, t: lead_lag_step(t, p["Tz"], p["T"]),
+        num_den=lambda p: ([p["K"] * p["Tz"], p["K"]], [p["T"], 1.0]),
+        text=lambda p, d: f"{_g(p['K'], d)}({_g(p['Tz'], d)}s+1)/({_g(p['T'], d)}s+1)",
+        time_scale=lambda p: zero_lags_time_scale(abs(p["T"]), p["Tz"]),
+        order_class=lambda p: "first",
+        lags=lambda p: [p["T"]],
+        bounds={**_BOUNDS_DELAY, "Tz": (-math.inf, math.inf), "T": _POSITIVE},
+    ),
 )}
 
 
@@ -270,6 +312,11 @@ class ProcessModel:
         return self.spec.order_class(self.params)
 
     @property
+    def integrating(self) -> bool:
+        """True when the step response ramps (the gain is per time unit)."""
+        return self.spec.integrating
+
+    @property
     def time_scale(self) -> float:
         """The sum of the model's time constants (seconds), see :class:`Structure`."""
         return float(self.spec.time_scale(self.params))
@@ -280,11 +327,18 @@ class ProcessModel:
 
     # -- responses ----------------------------------------------------------------------
     def unit_step(self, t: np.ndarray) -> np.ndarray:
-        """Response to a unit step at t = 0 (deviation variables), delay included."""
-        t = np.asarray(t, dtype=np.float64) - self.delay
-        out = np.zeros_like(t)
-        pos = t > 0
-        out[pos] = self.K * self.spec.step(self.params, t[pos])
+        """Response to a unit step at t = 0 (deviation variables), delay included.
+
+        Right-continuous at the dead time (``S(delay) = S(delay+)``): a lead-lag's jump
+        is seen at the sample where the delayed step arrives, as in scipy's ZOH
+        discretisation. Times within 1e-12 (relative) of the dead time count as on it.
+        """
+        t = np.asarray(t, dtype=np.float64)
+        tau = t - self.delay
+        out = np.zeros_like(tau)
+        eps = 1e-12 * max(1.0, abs(self.delay), float(np.max(np.abs(t))) if t.size else 0.0)
+        pos = tau >= -eps
+        out[pos] = self.K * self.spec.step(self.params, np.maximum(tau[pos], 0.0))
         return out
 
     # -- transfer function --------------------------------------------------------------

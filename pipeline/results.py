@@ -156,7 +156,8 @@ def event_doc(e: Event, role: str) -> EventDoc:
         index=e.index, kind=e.kind, t0=e.t0, t_end=e.t_end, i_start=e.i_start,
         i_end=e.i_end, u0=e.u0, u_ss=e.u_ss, y0=_finite(e.y0), y_ss=_finite(e.y_ss),
         area=e.area if impulse else None, duration=e.duration if impulse else None,
-        settled=e.settled, noise=_finite(e.noise), role=role)
+        settled=e.settled, noise=_finite(e.noise), response=e.response,
+        slope=_finite(e.slope), drift=_finite(e.drift), role=role)
 
 
 def flag_doc(f: Flag) -> FlagDoc:

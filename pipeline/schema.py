@@ -78,7 +78,10 @@ class FitDoc(_Doc):
 
 
 class EventDoc(_Doc):
-    """One step or impulse found by segmentation, and the role it played."""
+    """One step or impulse found by segmentation, and the role it played. ``response``:
+    whether the output settles, ramps (an integrating process after a step; ``slope`` is
+    the final ramp's, output units per second) or moves to a new level and stays (an
+    integrating process after a pulse); ``drift``: the output's slope before ``t0``."""
 
     index: int
     kind: Literal["step", "impulse"]
@@ -94,6 +97,9 @@ class EventDoc(_Doc):
     duration: float | None = None
     settled: bool
     noise: float | None = None
+    response: Literal["settling", "ramp", "level_shift"] = "settling"
+    slope: float | None = None
+    drift: float | None = None
     role: Literal["identification", "validation", "unused"] = "unused"
 
 

@@ -22,6 +22,30 @@ Algorithm (pure function of the record):
    reach 63 %, or whose output still drifts (the last tenth's mean differs from the tenth
    before by more than ``settle_drift`` of the change), is flagged ``settled = False``
    (DaISy's 200 s windows are ~3 time constants and its slow second mode still creeps).
+6. Integrating responses (the response ``r`` is the output less the baseline line
+   ``y0 + drift (t - t0)``). ``drift``: before the first event, the slope of a line fit
+   of the baseline, kept when it exceeds 4 standard errors and the baseline lasts at
+   least ``drift_span`` (25 %) of the window (a short stretch of a response still
+   settling is not extrapolated over a long window; e.g. a motor's angle that already
+   turns); before a later event, the previous window's final ramp (0 if it was not a
+   ramp). A step window is a ``"ramp"`` when, over its last half, (a) the output's slope
+   differs from ``drift`` by more than 5 standard errors, in the direction of ``r``;
+   (b) the slope does not fall by more than ``ramp_slope_tol`` (20 %) of that change
+   plus 1.5 standard errors (a quadratic fit; a lag's slope falls by 1 - e^{-W/(2T)}
+   over the last half of a window W, 53 % at W = 1.5 T); and (c) ``r`` rises at least
+   ``ramp_rate`` (95 %) as fast as over the whole window on average,
+   ``2 (r_end - r_mid) >= 0.95 r_end`` within 3 standard errors of the means (a
+   response whose slope only grows, as a ramp behind a lag, passes; a settling one, whose
+   last half adds less than half of its change, does not: 2 e^{-W/(2T)}/(1 + e^{-W/(2T)})
+   = 0.64 for a lag at W = 1.5 T). An impulse window is a
+   ``"level_shift"`` when its output ends away from the baseline (the "not settled" test
+   of step 4 fails) at least at ``level_share`` (80 %) of its largest excursion, with no
+   excursion the other way, and is not heading back (over the last half it moves back by
+   at most 5 % of the shift, or 4 standard errors). A ramp is ``settled`` (its lag has
+   died out: the slope is steady); a level shift is ``settled`` once the level no longer
+   moves by more than that either way. For both, ``y0`` is the baseline line at ``t0``.
+   Otherwise the response is ``"settling"``. ``slope`` is the output's slope over the
+   last half of the window (units per second).
 """
 
 from __future__ import annotations
@@ -49,6 +73,10 @@ class SegmentOptions:
     stable_samples: int = 3
     settle_time_constants: float = 4.0
     settle_drift: float = 0.01
+    ramp_slope_tol: float = 0.2
+    ramp_rate: float = 0.95
+    level_share: float = 0.8
+    drift_span: float = 0.25
 
 
 @dataclass(frozen=True)
@@ -159,6 +187,7 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
     t, u, y = record.t, record.u, record.y
     n = u.size
     events: list[Event] = []
+    prev_ramp = (0.0, 0.0)
     for idx, r in enumerate(raws):
         end = raws[idx + 1].k if idx + 1 < len(raws) else n
         prev = raws[idx - 1].k if idx > 0 else 0
@@ -191,12 +220,117 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             dur = float(t[r.j] - t[r.k])
             peak = float(np.max(np.abs(y[r.k : end] - y0))) if end > r.k else 0.0
             settled = abs(y_ss - y0) <= 0.05 * peak + 3 * noise
+        if idx == 0:
+            drift, e_drift = _drift(t[i_base : r.k], y[i_base : r.k], noise,
+                                    opt.drift_span * (t[end - 1] - t[r.k]))
+        else:  # the previous window's final ramp goes on (0 if it settled or shifted)
+            drift, e_drift = prev_ramp
+        y_line = y0 + drift * (t[r.k] - float(np.mean(t[i_base : r.k]))) if drift else y0
+        w = _window(t[r.k : end], y[r.k : end], y_line, drift, e_drift, noise)
+        response = "settling"
+        if w is not None and r.kind == "step" and _is_ramp(w, opt):
+            response, settled = "ramp", True
+        elif w is not None and r.kind == "impulse" and not settled:
+            shifted, still = _level_shift(w, opt)
+            response, settled = ("level_shift", still) if shifted else ("settling", False)
+        if response != "settling":
+            y0 = y_line
+        prev_ramp = (w.slope, w.e_slope) if response == "ramp" else (0.0, 0.0)
         events.append(Event(
             index=idx, kind=r.kind, i_start=r.k, i_end=end, i_base=i_base, t0=float(t[r.k]),
-            t_end=float(t[end - 1]), u0=float(u0), u_ss=float(u_ss), y0=y0, y_ss=y_ss,
-            area=area, duration=dur, settled=bool(settled), noise=noise,
+            t_end=float(t[end - 1]), u0=float(u0), u_ss=float(u_ss), y0=float(y0),
+            y_ss=y_ss, area=area, duration=dur, settled=bool(settled), noise=noise,
+            response=response, slope=w.slope if w is not None else 0.0, drift=drift,
         ))
     return events
+
+
+def _line(t: np.ndarray, y: np.ndarray, sigma: float) -> tuple[float, float]:
+    """Least-squares slope of ``y`` over ``t`` and its standard error for white noise
+    ``sigma``."""
+    tc = t - np.mean(t)
+    sxx = float(np.dot(tc, tc))
+    if t.size < 2 or sxx <= 0:
+        return 0.0, math.inf
+    return float(np.dot(tc, y - np.mean(y)) / sxx), sigma / math.sqrt(sxx)
+
+
+def _drift(t: np.ndarray, y: np.ndarray, sigma: float, min_span: float,
+           min_samples: int = 10) -> tuple[float, float]:
+    """``(slope, standard error)`` of the baseline before the first event: 0 unless it
+    is significant and the baseline lasts ``min_span`` (a short stretch of a response
+    still settling must not be extrapolated over a long window)."""
+    if t.size < min_samples or t[-1] - t[0] < min_span:
+        return 0.0, 0.0
+    slope, se = _line(t, y, sigma)
+    return (slope, se) if abs(slope) > 4 * se else (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class _Window:
+    """The readings of step 6 on one event window: the response ``r`` (output less the
+    baseline line extrapolated from t0), its mean over the last tenth, and the output's
+    slope over the last half with its standard error."""
+
+    t: np.ndarray
+    r: np.ndarray
+    r_end: float
+    slope: float
+    e_slope: float
+    drift: float
+    e_drift: float
+    noise: float
+
+    @property
+    def span(self) -> float:
+        """Duration of the last half."""
+        return float(self.t[-1] - self.t[self.t.size // 2])
+
+
+def _window(t, y, y0, drift, e_drift, noise) -> _Window | None:
+    """Step 6 readings, or None for a window too short to tell (fewer than 40 samples)."""
+    if t.size < 40:
+        return None
+    h, m = t.size // 2, max(3, t.size // 10)
+    r = y - y0 - drift * (t - t[0])
+    slope, e_slope = _line(t[h:], y[h:], noise)
+    return _Window(t, r, float(np.mean(r[-m:])), slope, e_slope, drift, e_drift, noise)
+
+
+def _is_ramp(w: _Window, opt: SegmentOptions) -> bool:
+    """Step 6 (a)-(c) for a step window."""
+    n = w.t.size
+    h, m = n // 2, max(3, n // 10)
+    d = w.slope - w.drift
+    sign = math.copysign(1.0, w.r_end)
+    changed = d * sign > 5 * math.hypot(w.e_slope, w.e_drift)
+    # (b) the slope does not fall over the last half: r = c0 + c1 x + c2 x^2 there
+    x = w.t[h:] - 0.5 * (w.t[h] + w.t[-1])
+    X = np.stack([np.ones_like(x), x, x * x], axis=1)
+    c, *_ = np.linalg.lstsq(X, w.r[h:], rcond=None)
+    e_c2 = w.noise * math.sqrt(float(np.linalg.inv(X.T @ X)[2, 2]))
+    fall = -2.0 * c[2] * w.span * sign  # slope lost across the last half
+    steady = fall <= opt.ramp_slope_tol * abs(d) + 1.5 * 2.0 * e_c2 * w.span
+    # (c) the last half rises at least ramp_rate as fast as the whole window on average
+    r_mid = float(np.mean(w.r[max(0, h - m // 2) : h - m // 2 + m]))
+    lead = sign * (2.0 * (w.r_end - r_mid) - opt.ramp_rate * w.r_end)
+    e_lead = w.noise * math.sqrt(((2.0 - opt.ramp_rate) ** 2 + 4.0) / m)
+    return changed and steady and lead >= -3 * e_lead
+
+
+def _level_shift(w: _Window, opt: SegmentOptions) -> tuple[bool, bool]:
+    """``(is a level shift, settled)`` for an impulse window that is not back at its
+    baseline (step 6)."""
+    if w.r_end == 0:
+        return False, False
+    rs = smooth(w.r, w.noise / max(float(np.max(np.abs(w.r))), 1e-300))
+    sign = math.copysign(1.0, w.r_end)
+    reach, other = float(np.max(sign * rs)), float(np.max(-sign * rs))
+    moving = sign * (w.slope - w.drift) * w.span  # away from the baseline
+    still = max(0.05 * abs(w.r_end), 4 * math.hypot(w.e_slope, w.e_drift) * w.span)
+    stays = abs(w.r_end) >= opt.level_share * reach and moving >= -still
+    one_way = other <= 0.2 * abs(w.r_end) + 3 * w.noise
+    return stays and one_way, stays and one_way and moving <= still
 
 
 def _head(y: np.ndarray, sigma: float) -> np.ndarray:

@@ -27,7 +27,8 @@ from scipy.optimize import brentq
 
 from pipeline.events import EventData
 from pipeline.methods.charts import STREJC_TABLE
-from pipeline.models import ProcessModel, second_order_step
+from pipeline.models import ProcessModel
+from pipeline.responses import second_order_step
 from tests.builders import flat, fo, impulse, nl, so, step, tl
 
 SEEDS = (0, 1, 2, 3, 4)

@@ -150,3 +150,106 @@ def test_noise_over_a_small_level_shift_is_not_impulses():
     evs = segment(_rec(t, u, y))
     assert [e.kind for e in evs] == ["step", "step"]
     assert evs[1].t0 == pytest.approx(300.0, abs=1.0)
+
+
+# -- integrating responses -------------------------------------------------------------
+
+INT_LAG = ProcessModel("integrator_lag", {"K": 0.5, "T": 4.0, "delay": 1.0})
+
+
+def _ramp_record(model=INT_LAG, *, t_end=60.0, changes=((10.0, 3.0),), noise=0.01, seed=0,
+                 drift=0.0, dt=0.1):
+    t = np.arange(int(round(t_end / dt)) + 1) * dt
+    u = staircase(t, 1.0, list(changes))
+    clean = response(model, t, u, 1.0, 3.0) + drift * t
+    span = float(np.ptp(clean))
+    return _rec(t, u, clean + np.random.default_rng(seed).normal(0, noise * span, t.size))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_step_on_an_integrator_is_a_settled_ramp(seed):
+    (ev,) = segment(_ramp_record(seed=seed))
+    assert (ev.response, ev.settled, ev.drift) == ("ramp", True, 0.0)
+    assert ev.slope == pytest.approx(0.5 * 2.0, rel=0.02)
+    assert ev.y0 == pytest.approx(3.0, abs=0.1)
+
+
+def test_ramp_on_a_turning_baseline_keeps_its_drift():
+    """A motor's angle already turning before the step: the drift is measured, the ramp
+    is the change of slope, and y0 is the baseline line at t0."""
+    (ev,) = segment(_ramp_record(drift=0.4, t_end=40.0))
+    assert ev.response == "ramp"
+    assert ev.drift == pytest.approx(0.4, rel=0.05)
+    assert ev.slope - ev.drift == pytest.approx(1.0, rel=0.03)
+    assert ev.y0 == pytest.approx(3.0 + 0.4 * 10.0, abs=0.3)
+
+
+def test_step_back_stops_the_ramp():
+    """Up and back down: the second window ends flat, a ramp change of -K du from the
+    first window's slope."""
+    a, b = segment(_ramp_record(t_end=120.0, changes=((10.0, 3.0), (60.0, 1.0))))
+    assert (a.response, b.response) == ("ramp", "ramp")
+    assert b.drift == pytest.approx(a.slope)
+    assert b.slope == pytest.approx(0.0, abs=0.02)
+
+
+@pytest.mark.parametrize("model", [INT_LAG, ProcessModel("integrator", {"K": 0.5,
+                                                                         "delay": 1.0})])
+def test_pulse_on_an_integrator_is_a_level_shift(model):
+    t = np.arange(0, 80, 0.1)
+    u = pulse(t, 1.0, 10.0, 1.0, 4.0)  # area 4
+    y = response(model, t, u, 1.0, 3.0, noise=0.02, seed=2)
+    (ev,) = segment(_rec(t, u, y))
+    assert (ev.kind, ev.response, ev.settled) == ("impulse", "level_shift", True)
+    assert ev.y_ss - ev.y0 == pytest.approx(0.5 * 4.0, rel=0.02)
+
+
+SELF_REGULATING = {
+    "first_order": (FO, 5.0),
+    "fopdt": (ProcessModel("first_order", {"K": 2.0, "T": 5.0, "delay": 2.0}), 7.0),
+    "two_lags": (ProcessModel("two_lags", {"K": 2.0, "T1": 5.0, "T2": 1.0}), 6.1),
+    "underdamped": (ProcessModel("second_order", {"K": 2.0, "zeta": 0.5, "wn": 0.5}), 3.3),
+}
+
+
+@pytest.mark.parametrize("plant", list(SELF_REGULATING))
+def test_unsettled_lags_are_not_ramps(plant):
+    """Windows of 1.5, 3 and 10 times the 63 % time, noise 0-5 % of the change, 5 seeds
+    each: never a ramp (a lag's slope falls over the end of the window); the slow
+    windows are flagged not settled instead."""
+    model, t63 = SELF_REGULATING[plant]
+    ramps, unsettled = 0, 0
+    for factor in (1.5, 3.0, 10.0):
+        w = factor * t63
+        dt = w / 400
+        t = np.arange(int(round((10 + w) / dt)) + 1) * dt
+        u = staircase(t, 1.0, [(10.0, 3.0)])
+        for noise in (0.0, 0.01, 0.03, 0.05):
+            for seed in range(5):
+                y = response(model, t, u, 1.0, 3.0, noise * 4.0, seed)
+                (ev,) = segment(_rec(t, u, y))
+                ramps += ev.response == "ramp"
+                unsettled += factor == 1.5 and not ev.settled
+    assert ramps == 0
+    assert unsettled == 20
+
+
+def test_pulses_on_lags_are_not_level_shifts():
+    t = np.arange(0, 80, 0.1)
+    u = pulse(t, 1.0, 10.0, 1.0, 4.0)
+    for model, _ in SELF_REGULATING.values():
+        for seed in range(5):
+            y = response(model, t, u, 1.0, 3.0, noise=0.05, seed=seed)
+            assert [e.response for e in segment(_rec(t, u, y))] == ["settling"]
+
+
+def test_daisy_creeping_windows_are_not_ramps():
+    from pipeline.datasets import fetch
+    from tests.conftest import have_mirror
+
+    if not have_mirror():
+        pytest.skip("needs the DaISy mirror")
+    d = np.loadtxt(fetch("daisy-heating"))
+    evs = segment(_rec(d[:, 0], d[:, 1], d[:, 2], initial_input=6.0))
+    assert {e.response for e in evs} == {"settling"}
+    assert all(e.drift == 0.0 for e in evs)

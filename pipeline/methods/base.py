@@ -3,7 +3,9 @@
 The array-level toolbox (noise, smoothing, crossings, extrema) is :mod:`pipeline.signal`;
 here it is applied to an :class:`~pipeline.events.EventData`:
 
-* :func:`normalised` - time since t0, fractional response and its noise level;
+* :func:`normalised` - time since t0, fractional response and its noise level, for the
+  self-regulating methods (not applicable to a ramp or an inverse response);
+* :func:`undershoot` - the wrong-way excursion of an inverse response;
 * :func:`band_exit_time` - seed 001 "Time delay": when the output leaves its noise band
   (ERRATA [S1] 14: the first exit of a +-max(1 %, 4 sigma) band);
 * :func:`clip_delay` - a negative computed delay becomes 0, recorded as ``delay_computed``
@@ -13,19 +15,67 @@ here it is applied to an :class:`~pipeline.events.EventData`:
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from ..errors import NotApplicable
 from ..events import EventData
-from ..signal import interp_cross, smooth
+from ..signal import NOISE_FREE, interp_cross, smooth
 
 
-def normalised(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
+def fraction(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
     """``(tau, h, sigma_h)``: time since t0, fractional response (y - y0)/(y_ss - y0) and
     its noise level; a step with no output change is not applicable."""
     tau, dy = ev.after()
     if ev.dy == 0 or not np.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
         raise NotApplicable("the output did not change measurably (|y_ss - y0| <= 3 sigma)")
     return tau, dy / ev.dy, ev.noise / abs(ev.dy)
+
+
+def normalised(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`fraction` for the self-regulating methods (chains of lags, second order):
+    not applicable to a ramp (an integrating response has no steady-state gain) or to an
+    inverse response (no chain of lags moves the wrong way first; :func:`undershoot`)."""
+    if ev.response == "ramp":
+        raise NotApplicable("the output ramps without settling (an integrating process): "
+                            "a self-regulating model has no gain for it")
+    tau, h, sigma = fraction(ev)
+    u = undershoot(ev)
+    if u is not None:
+        raise NotApplicable(f"the output first moves the wrong way, by {u['depth']:.1%} of "
+                            f"its change at {u['t']:.3g} s after the step (an inverse "
+                            "response): no chain of lags undershoots")
+    return tau, h, sigma
+
+
+#: An undershoot counts when it is deeper than this fraction of the change (and the noise).
+UNDERSHOOT_MIN = 0.02
+
+
+def undershoot(ev: EventData) -> dict | None:
+    """The wrong-way excursion of a step response before it first reaches half its
+    change: ``{"depth", "t"}`` (depth a positive fraction of the change, time since t0),
+    or None when it is within ``max(UNDERSHOOT_MIN, 5 sigma/sqrt(w))``.
+
+    The fractional response from the baseline on is averaged over a moving window of
+    ``w`` samples (2 % of the event, at least 5; only when there is noise): an average
+    has no negative weights, so the corner of a response that starts rising at t0 does
+    not turn into a dip, as it would under Savitzky-Golay smoothing."""
+    if ev.dy == 0 or not np.isfinite(ev.dy):
+        return None
+    h = (ev.y - ev.y0) / ev.dy
+    sigma = ev.noise / abs(ev.dy)
+    w = max(5, int(0.02 * h.size) | 1) if sigma > NOISE_FREE else 1
+    hs = uniform_filter1d(h, w, mode="nearest") if w > 1 else h
+    i0 = ev.i0
+    half = np.flatnonzero(hs[i0:] >= 0.5)
+    stop = i0 + (int(half[0]) if half.size else hs.size - i0)
+    if stop <= i0:
+        return None
+    j = i0 + int(np.argmin(hs[i0:stop]))
+    depth = -float(hs[j])
+    if depth <= max(UNDERSHOOT_MIN, 5 * sigma / np.sqrt(w)):
+        return None
+    return {"depth": depth, "t": float(ev.t[j] - ev.t0)}
 
 
 def band_exit_time(ev: EventData, band_rel: float = 0.01, band_sigma: float = 4.0

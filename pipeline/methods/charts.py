@@ -40,7 +40,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import gammainc, gammaincinv
 
-from ..models import second_order_step, two_lag_step
+from ..responses import second_order_step, two_lag_step
 
 _XTOL = 1e-14
 

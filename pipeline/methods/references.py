@@ -23,4 +23,10 @@ REFERENCES: dict[str, str] = {
     "jakoubek2009": "P. Jakoubek, \"Identifikace parametrů stabilních nekmitavých "
                     "soustav\", Automatizace 52(2), 2009 (seed 002, the comparison of "
                     "seven methods)",
+    "astrom2006": "K. J. Åström, T. Hägglund, Advanced PID Control, ISA, 2006 (integrating "
+                  "processes: the model K_v e^{-sL}/s from the slope and the intercept of "
+                  "the step response's asymptote)",
+    "balaguer2011": "P. Balaguer, V. Alfaro, O. Arrieta, \"Second order inverse response "
+                    "process identification from transient step response data\", ISA "
+                    "Transactions 50(2):231-238, 2011",
 }

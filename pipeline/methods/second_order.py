@@ -9,7 +9,8 @@ from scipy.optimize import brentq
 
 from ..errors import NotApplicable
 from ..events import EventData
-from ..models import ProcessModel, second_order_step
+from ..models import ProcessModel
+from ..responses import second_order_step
 from ..signal import crossing_time, extremum, smooth
 from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register

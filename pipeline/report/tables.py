@@ -54,25 +54,35 @@ def _ordered(params: dict) -> list[str]:
     return sorted(params, key=lambda k: order.index(k) if k in order else len(order))
 
 
-def params_text(params: dict | None) -> str:
-    """``K=20.7, T=55.4, delay=3.64`` in the parameter table's order and formats (a zero
-    dead time is left out)."""
+def params_text(params: dict | None, units: dict | None = None,
+                structure: str | None = None) -> str:
+    """``K=20.7 degC/V, T=55.4 s, delay=3.64 s`` in the parameter table's order and formats
+    (units when ``units`` are given; a zero dead time is left out)."""
     if not params:
         return "-"
-    return ", ".join(f"{k}={_value(k, params[k])}" for k in _ordered(params)
-                     if not (k == "delay" and float(params[k]) == 0.0))
+    out = []
+    for k in _ordered(params):
+        if k == "delay" and float(params[k]) == 0.0:
+            continue
+        u = _unit(k, units, structure) if units is not None else ""
+        out.append(f"{k}={_value(k, params[k])}" + (f" {u}" if u else ""))
+    return ", ".join(out)
 
 
 def _value(name: str, v) -> str:
     return PARAMETERS[name].format(v) if name in PARAMETERS else fmt(float(v))
 
 
-def unit_of(name: str, record: Record | None, structure: str | None) -> str:
-    """The unit of parameter ``name`` for this record (K per time unit for integrators)."""
+def _unit(name: str, units: dict | None, structure: str | None) -> str:
     if name not in PARAMETERS:
         return ""
-    integrating = bool(structure and STRUCTURES[structure].integrating)
-    return PARAMETERS[name].unit(record.units if record else {}, integrating=integrating)
+    integrating = bool(structure and structure in STRUCTURES and STRUCTURES[structure].integrating)
+    return PARAMETERS[name].unit(units or {}, integrating=integrating)
+
+
+def unit_of(name: str, record: Record | None, structure: str | None) -> str:
+    """The unit of parameter ``name`` for this record (K per time unit for integrators)."""
+    return _unit(name, record.units if record else {}, structure)
 
 
 def with_ci(fit: Fit, name: str) -> str:
@@ -85,12 +95,15 @@ def with_ci(fit: Fit, name: str) -> str:
     return f"{_value(name, v)} ± {fmt(half, 2)}"
 
 
-def dynamics_text(structure: str | None, params: dict) -> str:
-    """The dynamic parameters of a model (the structure table says which they are)."""
+def dynamics_text(structure: str | None, params: dict, record: Record | None = None) -> str:
+    """The dynamic parameters of a model (the structure table says which they are), with
+    their units when the record is given."""
     if not structure or structure not in STRUCTURES:
         return "-"
     names = STRUCTURES[structure].dynamics
-    return ", ".join(f"{k}={_value(k, params[k])}" for k in names if k in params) or "-"
+    return ", ".join(f"{k}={_value(k, params[k])}" + (
+        f" {u}" if record is not None and (u := unit_of(k, record, structure)) else "")
+        for k in names if k in params) or "-"
 
 
 # -- tables ------------------------------------------------------------------------------
@@ -129,7 +142,7 @@ def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
             Cell(str(len(r.events)), "num"), Cell(fit.method, "code"),
             Cell(f"{with_ci(fit, 'K')} {unit_of('K', r.record, fit.model.structure)}".strip(),
                  "num"),
-            Cell(dynamics_text(fit.model.structure, p)),
+            Cell(dynamics_text(fit.model.structure, p, r.record)),
             Cell(fmt(fit.model.delay), "num"),
             Cell(fmt(fit.metrics.get("mse_validation")), "num"),
             Cell(fmt(fit.metrics.get("fit_percent"), 3), "num"),
