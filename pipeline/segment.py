@@ -58,7 +58,7 @@ from scipy.stats import trim_mean
 
 from .events import Event, EventData
 from .record import Record, make_record
-from .signal import noise_sigma, smooth
+from .signal import noise_estimate, noise_sigma, smooth
 
 
 @dataclass(frozen=True)
@@ -204,7 +204,11 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
         y0 = float(np.mean(base))
         m = max(opt.min_tail_samples, int(opt.tail_fraction * (end - r.k)))
         y_ss = float(np.mean(y[max(r.k, end - m) : end]))
-        noise = noise_sigma(y[i_base:end])
+        est = noise_estimate(y[i_base:end])
+        noise = est.sigma
+        # means and slopes over many samples: coloured noise averages out more slowly
+        # (variance x correlation_samples), so their tests use the inflated sigma
+        noise_avg = noise * math.sqrt(est.correlation_samples)
         if r.kind == "step":
             plateau = u[r.j : end]
             if plateau.size:
@@ -212,7 +216,7 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             u_ss = float(trim_mean(plateau, 0.1)) if plateau.size else float(u[r.j])
             u0 = r.level_before if idx == 0 else _level_before(events, r)
             area, dur = 0.0, 0.0
-            settled = _step_settled(t[r.k : end], y[r.k : end], y0, y_ss, noise, opt)
+            settled = _step_settled(t[r.k : end], y[r.k : end], y0, y_ss, noise_avg, opt)
         else:
             u0 = u_ss = r.level_before if idx == 0 else _level_before(events, r)
             dt = np.diff(t[r.k : r.j + 1])
@@ -221,12 +225,12 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             peak = float(np.max(np.abs(y[r.k : end] - y0))) if end > r.k else 0.0
             settled = abs(y_ss - y0) <= 0.05 * peak + 3 * noise
         if idx == 0:
-            drift, e_drift = _drift(t[i_base : r.k], y[i_base : r.k], noise,
+            drift, e_drift = _drift(t[i_base : r.k], y[i_base : r.k], noise_avg,
                                     opt.drift_span * (t[end - 1] - t[r.k]))
         else:  # the previous window's final ramp goes on (0 if it settled or shifted)
             drift, e_drift = prev_ramp
         y_line = y0 + drift * (t[r.k] - float(np.mean(t[i_base : r.k]))) if drift else y0
-        w = _window(t[r.k : end], y[r.k : end], y_line, drift, e_drift, noise)
+        w = _window(t[r.k : end], y[r.k : end], y_line, drift, e_drift, noise_avg)
         response = "settling"
         if w is not None and r.kind == "step" and _is_ramp(w, opt):
             response, settled = "ramp", True

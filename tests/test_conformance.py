@@ -28,6 +28,9 @@ PLANTS = {
     "underdamped": so(0.31, 5.05, K=0.25),
     "two_lags": tl(2.0, 0.4),
     "five_lags": nl(0.5, 5),
+    "integrator_lag": ProcessModel("integrator_lag", {"K": 0.5, "T": 1.0, "delay": 0.3}),
+    "inverse": ProcessModel("zero_two_lags", {"K": 2.0, "Tz": -1.5, "T1": 3.0, "T2": 0.8}),
+    "lead_lag": ProcessModel("lead_lag", {"K": 2.0, "Tz": 4.0, "T": 1.0}),
 }
 
 #: The fixed event set: steps up and down, a negative gain, impulses of both signs,
@@ -54,6 +57,8 @@ EVENTS: dict[str, Callable[[], EventData]] = {
     "impulse-cut-after-peak": lambda: truncated(impulse(PLANTS["underdamped"], **PULSE),
                                                 450),
     "impulse-no-area": lambda: replace(impulse(PLANTS["first"], **PULSE), area=0.0),
+    "impulse-integrator": lambda: impulse(PLANTS["integrator_lag"], **PULSE),
+    "step-integrator-noisy": lambda: step(PLANTS["integrator_lag"], **OP, noise_rel=0.01),
 }
 
 

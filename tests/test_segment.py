@@ -253,3 +253,20 @@ def test_daisy_creeping_windows_are_not_ramps():
     evs = segment(_rec(d[:, 0], d[:, 1], d[:, 2], initial_input=6.0))
     assert {e.response for e in evs} == {"settling"}
     assert all(e.drift == 0.0 for e in evs)
+
+
+def test_settled_test_accounts_for_coloured_noise():
+    """A long settled window under AR(1) noise (phi 0.8) is settled: the means of its last
+    tenths wander more than white noise's would, and the test knows it."""
+    from pipeline.models import ProcessModel
+    from pipeline.synth import step_record
+    from tests.builders import noise
+
+    m = ProcessModel("first_order", {"K": 2.0, "T": 5.0})
+    unsettled = 0
+    for seed in range(40):
+        rec = step_record(m, u0=1.0, changes=[(20.0, 3.0)], t_end=220.0, dt=0.1, y0=7.0)
+        y = rec.y + noise(rec.t.size, 0.04, phi=0.8, seed=seed)
+        ev = segment(_rec(rec.t, rec.u, y))[0]
+        unsettled += not ev.settled
+    assert unsettled <= 2

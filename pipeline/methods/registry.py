@@ -95,7 +95,23 @@ def identify(ev: EventData, method: str) -> Fit:
     if res.model.structure not in info.structures:
         return Fit(method, ev.index, "failed", f"internal error: returned a "
                    f"{res.model.structure} model, registered for {list(info.structures)}")
+    outside = _outside_bounds(res.model)
+    if outside:
+        return Fit(method, ev.index, "not_applicable", f"the reading gives {outside}, outside "
+                   "the structure's domain: the response does not have this shape",
+                   diagnostics=res.diagnostics)
     return Fit(method, ev.index, "ok", None, res.model, {}, res.diagnostics)
+
+
+def _outside_bounds(model: ProcessModel) -> str | None:
+    """``"T = 0"`` for the first parameter outside its structure's bounds (a time constant
+    must be positive where its lower bound is 0), else None."""
+    for name, (lo, hi) in model.spec.bounds.items():
+        v = float(model.params.get(name, 0.0 if name == "delay" else math.nan))
+        strict = lo == 0.0 and name != "delay"
+        if not (lo < v if strict else lo <= v) or not v <= hi:
+            return f"{name} = {v:.4g}"
+    return None
 
 
 def _article(kind: str) -> str:
