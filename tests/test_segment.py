@@ -266,7 +266,7 @@ def test_settled_test_accounts_for_coloured_noise():
     unsettled = 0
     for seed in range(40):
         rec = step_record(m, u0=1.0, changes=[(20.0, 3.0)], t_end=220.0, dt=0.1, y0=7.0)
-        y = rec.y + noise(rec.t.size, 0.04, phi=0.8, seed=seed)
+        y = rec.y + noise(rec.t.size, 0.2, phi=0.8, seed=seed)  # 5 % of the change
         ev = segment(_rec(rec.t, rec.u, y))[0]
         unsettled += not ev.settled
     assert unsettled <= 2
