@@ -244,7 +244,7 @@ def segment(
     import json
 
     from .io import load_record
-    from .report.tables import fmt
+    from .report.tables import fmt, response_text
     from .results import event_doc
     from .segment import segment as find_events
 
@@ -257,12 +257,14 @@ def segment(
         sys.stdout.write(json.dumps(docs, indent=1) + "\n")
         return
     tab = Table(title=f"{record.name}: {len(events)} event(s)")
-    for col in ("#", "kind", "t0", "t_end", "u0", "u_ss / area", "y0", "y_ss", "settled"):
+    for col in ("#", "kind", "t0", "t_end", "u0", "u_ss / area", "y0", "y_ss", "response",
+                "settled"):
         tab.add_column(col)
     for e in events:
         tab.add_row(str(e.index), e.kind, fmt(e.t0), fmt(e.t_end), fmt(e.u0),
                     fmt(e.u_ss) if e.kind == "step" else f"A={fmt(e.area)}", fmt(e.y0),
-                    fmt(e.y_ss), "yes" if e.settled else "no (window short)")
+                    fmt(e.y_ss), response_text(e, record),
+                    "yes" if e.settled else "no (still moving)")
     out.print(tab)
 
 

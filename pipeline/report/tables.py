@@ -152,7 +152,7 @@ def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
 
 def events_table(res: RecordResult) -> Table:
     t = Table(["#", "kind", "role", "t0", "t_end", "u0", "u_ss", "area", "y0", "y_ss",
-               "settled"])
+               "response", "settled"])
     for e in res.events:
         t.rows.append([
             Cell(str(e.index), "num"), Cell(e.kind), Cell(res.roles.get(e.index, "-")),
@@ -160,8 +160,18 @@ def events_table(res: RecordResult) -> Table:
             Cell(fmt(e.u_ss) if e.kind == "step" else "-", "num"),
             Cell(fmt(e.area) if e.kind == "impulse" else "-", "num"),
             Cell(fmt(e.y0), "num"), Cell(fmt(e.y_ss), "num"),
+            Cell(response_text(e, res.record)),
             Cell("yes" if e.settled else "NO (still moving)")])
     return t
+
+
+def response_text(e, record: Record | None) -> str:
+    """"settling", or "ramp 0.5 cm/s" / "level shift" for an integrating response."""
+    if e.response == "ramp":
+        units = record.units if record else {}
+        per = f" {units.get('output', '')}/{units.get('time', 's')}".rstrip("/ ")
+        return f"ramp {fmt(e.slope, 3)}{per if units.get('output') else ''}"
+    return e.response.replace("_", " ")
 
 
 def ranking_table(res: RecordResult, event: int) -> Table:
