@@ -55,6 +55,10 @@ def test_daisy_dat():
     ("time,u,y\n", "no data rows"),
     ("time,u,y\n" + "".join(f"{i},1,2\n" for i in range(12)) + "3,1,2\n",
      "time is not strictly increasing"),
+    ("time,u,y\n" + "".join(f"{i},1,2\n" for i in range(12)) + "12,1,2,7\n13,1,2\n",
+     "line 14: 4 fields where line 1 has 3; expected the same number of fields on every row"),
+    ("time,u,y\n" + "".join(f"{i},1,2\n" for i in range(12)) + "12,1\n13,1,2\n",
+     "line 14: column 'y' is empty (a drop-out)"),
 ])
 def test_bad_csv_is_one_line(tmp_path, content, expected):
     p = tmp_path / "bad.csv"

@@ -170,3 +170,43 @@ def test_bad_layouts_are_one_line(tmp_path, text, keys, expected):
     with pytest.raises(UserError) as exc:
         _load(p, **keys)
     assert str(p) in exc.value.message and expected in exc.value.message
+
+
+def test_time_format_reads_other_layouts(tmp_path):
+    p = _write(tmp_path, "Zeit;u;y\n" + "".join(
+        f"27.10.2024 02:59:{50 + i // 2:02d},{5 * (i % 2)};{1 + (i > 5)},0;{2 + i},5\n"
+        for i in range(20)))
+    rec = _load(p, time="Zeit", time_format="%d.%m.%Y %H:%M:%S%.f", time_zone="Europe/Berlin")
+    assert rec.t[-1] == 9.5 and rec.start == "2024-10-27T02:59:50+02:00"
+    assert rec.y[0] == 2.5 and rec.u[-1] == 2.0
+
+
+def test_typed_date_times_of_a_workbook_and_a_parquet_file(tmp_path):
+    import datetime as dt
+
+    import polars as pl
+
+    stamps = [dt.datetime(2024, 10, 27, 9, 59, 55) + dt.timedelta(seconds=0.5 * i)
+              for i in range(20)]
+    frame = pl.DataFrame({"when": stamps, "u": [1.0 + (i > 5) for i in range(20)],
+                          "y": [2.0 + i for i in range(20)]})
+    frame.write_excel(tmp_path / "log.xlsx")
+    rec = _load(tmp_path / "log.xlsx", time="when", time_zone="Europe/Berlin")
+    assert rec.t[-1] == 9.5 and rec.start == "2024-10-27T09:59:55+01:00"
+    aware = frame.with_columns(pl.col("when").dt.replace_time_zone("Europe/Berlin"))
+    aware.write_parquet(tmp_path / "log.parquet")
+    rec = _load(tmp_path / "log.parquet", time="when")
+    assert rec.t[-1] == 9.5 and rec.start == "2024-10-27T09:59:55+01:00"
+
+
+def test_mat_structs_and_matrix_columns(tmp_path):
+    import scipy.io
+
+    t = np.arange(20) * 0.5
+    data = np.column_stack([t, 1.0 + (t > 3), 2.0 + t])
+    scipy.io.savemat(tmp_path / "m.mat", {"Ts": 0.5, "data": data,
+                                          "log": {"u": data[:, 1], "y": data[:, 2]}})
+    rec = _load(tmp_path / "m.mat", time="data[0]", input="log.u", output="data[2]")
+    assert rec.n_samples == 20 and rec.u[-1] == 2.0 and rec.y[3] == 3.5
+    rec = _load(tmp_path / "m.mat", time=0, input=3, output=4)  # the file's order
+    assert rec.input_name == "log.u" and rec.output_name == "log.y"

@@ -10,10 +10,11 @@ Keys (``data:``, beside the common ones): ``delimiter``, ``decimal``, ``header``
 the lines after the data that are not data rows, with a note), and the time and quirk
 keys of every table (:class:`~pipeline.io.table.TableOptions`).
 
-The lines are split by the standard ``csv`` module rather than ``polars.read_csv``:
-polars fills a short row with nulls without a word and names no line for a long one,
-while every error here names the file line. polars then parses the numbers and the
-date-times of the columns.
+The guesses and the header read the first lines with the standard ``csv`` module; the
+data lines (comments and blank lines left out, so each row's file line is known) are
+parsed by ``polars.read_csv``, and polars then reads the numbers and date-times. A row
+with fewer fields has empty cells (drop-outs: ``fill_gaps``); one with more is an error
+naming its line.
 """
 
 from __future__ import annotations
@@ -31,13 +32,14 @@ from .base import DataSection, Format, Places, Strict
 from .sniff import (
     DELIMITER_ALIASES,
     DELIMITERS,
+    SAMPLE,
     has_header,
     is_value,
     sniff_decimal,
     sniff_delimiter,
     split,
 )
-from .table import HeaderOptions, Table, TableOptions, column_names, table_to_record
+from .table import HeaderOptions, Table, TableOptions, column_names, one_line, table_to_record
 
 #: ``comma``, ``semicolon``, ``tab``, ``whitespace`` (or the character: ``";"``)
 Delimiter = Annotated[Literal[tuple(DELIMITERS)], BeforeValidator(
@@ -69,24 +71,58 @@ def read_text_table(path: Path, options: TextOptions) -> Table:
                if line.strip() and not line.lstrip().startswith("#")]
     if not content:
         raise UserError(f"{path}: the file is empty; expected a table of numbers")
-    delimiter = options.delimiter or sniff_delimiter([line for _, line in content], str(path))
-    rows = [split(line, delimiter) for _, line in content]
-    numbers = [n for n, _ in content]
+    first, top = content[0]
+    delimiter = options.delimiter or sniff_delimiter([line for _, line in content[:SAMPLE]],
+                                                     str(path))
+    head = split(top, delimiter)
     header = options.header
     if header is None:
-        header = has_header(rows[0], f"{path}: line {numbers[0]}")
-    body, lines = (rows[1:], numbers[1:]) if header else (rows, numbers)
-    body, lines, notes = _trailing(body, lines, len(rows[0]), numbers[0], options, path)
+        header = has_header(head, f"{path}: line {first}")
+    body, notes = _trailing(content[1:] if header else content, head, first, delimiter,
+                            options, path)
     if not body:
         raise UserError(f"{path}: no data rows after the header")
-    names = column_names(rows[0] if header else None, len(rows[0]), options.columns,
-                         f"{path}: line {numbers[0]}")
-    decimal = options.decimal or sniff_decimal(body, delimiter)
-    frame = pl.DataFrame([pl.Series(str(i), col, dtype=pl.String)
-                          for i, col in enumerate(zip(*body, strict=True))])
+    names = column_names(head if header else None, len(head), options.columns,
+                         f"{path}: line {first}")
+    frame = _parse(body, delimiter, len(head), first, path)
+    decimal = options.decimal or sniff_decimal([split(line, delimiter) for _, line in
+                                                body[:SAMPLE]], delimiter)
     if decimal == ",":
         frame = frame.with_columns(pl.all().str.replace_all(",", ".", literal=True))
-    return Table(frame, names, Places(path, lines), notes=tuple(notes))
+    return Table(frame, names, Places(path, [n for n, _ in body]), notes=tuple(notes))
+
+
+def _parse(body: list[tuple[int, str]], delimiter: str, width: int, first: int,
+           path: Path) -> pl.DataFrame:
+    """The data lines as text columns, parsed by polars. A row with fewer fields has empty
+    cells (a drop-out, see fill_gaps); one with more is an error naming its line, and so is
+    any whitespace row of another width (a blank field cannot be seen there)."""
+    if delimiter == "whitespace":
+        parts = [line.split() for _, line in body]
+        _check_widths([(n, len(p)) for (n, _), p in zip(body, parts, strict=True)], width,
+                      first, path)
+        text, sep = "\n".join("\t".join(p) for p in parts), "\t"
+    else:
+        text, sep = "\n".join(line for _, line in body), DELIMITERS[delimiter]
+    try:
+        frame = pl.read_csv(text.encode(), separator=sep, has_header=False, infer_schema=False,
+                            new_columns=[str(i) for i in range(width)])
+    except pl.exceptions.PolarsError as exc:
+        _check_widths([(n, len(split(line, delimiter))) for n, line in body], width, first,
+                      path)
+        raise UserError(f"{path}: not a readable table ({one_line(exc)})") from None
+    if frame.shape != (len(body), width):  # e.g. a quoted field across lines
+        raise UserError(f"{path}: {frame.height} rows of {frame.width} fields where the file "
+                        f"has {len(body)} data lines of {width}; expected one row per line")
+    return frame
+
+
+def _check_widths(counts: list[tuple[int, int]], width: int, first: int, path: Path) -> None:
+    """The first row whose number of fields is not ``width`` (that of line ``first``)."""
+    for n, k in counts:
+        if k != width:
+            raise UserError(f"{path}: line {n}: {k} fields where line {first} has {width}; "
+                            "expected the same number of fields on every row")
 
 
 def _lines(path: Path) -> list[str]:
@@ -106,29 +142,27 @@ def _lines(path: Path) -> list[str]:
         return raw.decode("latin-1").splitlines()
 
 
-def _trailing(body: list[list[str]], lines: list[int], width: int, first: int,
-              options: TextOptions, path: Path) -> tuple[list[list[str]], list[int], list[str]]:
-    """The data rows without the lines after them that are not data rows (a footer such
-    as ``End of log``): an error, or skipped with a note; a short or long row among the
-    data is an error."""
+def _trailing(body: list[tuple[int, str]], head: list[str], first: int, delimiter: str,
+              options: TextOptions, path: Path) -> tuple[list[tuple[int, str]], list[str]]:
+    """The data lines without the lines after them that are not data rows (a footer such
+    as ``End of log``: another number of fields, or no number): an error, or skipped with
+    a note."""
     end = len(body)
-    while end > 0 and (len(body[end - 1]) != width or not any(map(is_value, body[end - 1]))):
+    while end > 0 and not _data_like(split(body[end - 1][1], delimiter), len(head)):
         end -= 1
-    if end < len(body):
-        text = " ".join(body[end])[:60]
-        if options.trailing_lines == "error":
-            raise UserError(f"{path}: line {lines[end]}: {text!r} is not a data row after "
-                            f"the data; expected {width} fields of numbers, or set "
-                            "trailing_lines: skip")
-        notes = [f"trailing_lines: {len(body) - end} line(s) after the data skipped, from "
-                 f"line {lines[end]} ({text!r})"]
-    else:
-        notes = []
-    for row, n in zip(body[:end], lines[:end], strict=True):
-        if len(row) != width:
-            raise UserError(f"{path}: line {n}: {len(row)} fields where line {first} has "
-                            f"{width}; expected the same number of fields on every row")
-    return body[:end], lines[:end], notes
+    if end in (0, len(body)):  # no footer, or no row looks like data (the cells will say)
+        return body, []
+    n, text = body[end][0], body[end][1].strip()[:60]
+    if options.trailing_lines == "error":
+        raise UserError(f"{path}: line {n}: {text!r} is not a data row after the data; "
+                        f"expected {len(head)} fields of numbers, or set trailing_lines: skip")
+    return body[:end], [f"trailing_lines: {len(body) - end} line(s) after the data skipped, "
+                        f"from line {n} ({text!r})"]
+
+
+def _data_like(fields: list[str], width: int) -> bool:
+    return len(fields) == width and any(map(is_value, fields))
+
 
 FORMAT = Format("csv", (".csv", ".tsv", ".txt"), TextOptions, load_text,
                 aliases=("tsv", "txt", "text"))
