@@ -122,7 +122,7 @@ def fill_gaps(rows: Rows, options: QuirkOptions, names: tuple[str, str],
         notes.append(f"fill_gaps: {sum(b - a for a, b in edge)} rows with empty cells at the "
                      "start or end dropped")
     short = [(a, b) for a, b in inner if keep[a] and b - a <= options.fill_gaps]
-    rows = _filled(rows, empty)
+    rows = _filled(rows)
     if short:
         notes.append(f"fill_gaps: {len(short)} drop-out(s) of up to "
                      f"{max(b - a for a, b in short)} rows filled (input held, output "
@@ -136,7 +136,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
 
 
-def _filled(rows: Rows, empty: np.ndarray) -> Rows:
+def _filled(rows: Rows) -> Rows:
     """Every empty cell between two full rows filled: input held, output interpolated."""
     u = rows.u.copy()
     full_u = ~np.isnan(u)

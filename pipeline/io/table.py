@@ -166,20 +166,23 @@ def table_to_record(table: Table, data: DataSection, options: TableOptions,
     check_order(rows, options, table.places, hint)
     rows, merged = merge_duplicates(rows, options, table.places)
     rows, filled = fill_gaps(rows, options, (u_name, y_name), table.places)
-    units = {**given, **({"time": unit} if unit_from else {})}
-    from_header = {k: v for k, v in (("input", u_unit), ("output", y_unit)) if v and k not in units}
-    units.update(from_header)
-    if unit_from == "header":
-        from_header = {"time": f"{unit} (converted to seconds)" if unit != "s" else unit,
-                       **from_header}
-    notes = [*table.notes, *base.notes, *merged, *filled]
-    if from_header:
-        notes.append("units from the header: " + ", ".join(f"{k} {v}" for k, v in
-                                                          from_header.items()))
+    units, from_header = _units(given, unit, unit_from, {"input": u_unit, "output": y_unit})
+    notes = [*table.notes, *base.notes, *merged, *filled, *from_header]
     return make_record(rows.t, rows.u, rows.y, name=name, source=where, units=units,
                        initial_input=data.initial_input, input_name=u_name,
                        output_name=y_name, notes=tuple(notes), start=base.start)
 
+
+def _units(given: dict[str, str], unit: str, unit_from: str | None,
+           header: dict[str, str | None]) -> tuple[dict[str, str], list[str]]:
+    """The record's units (the config's, the time unit when someone stated it, then the
+    headers') and the note naming those a header gave."""
+    units = {**given, **({"time": unit} if unit_from else {})}
+    taken = {k: v for k, v in header.items() if v and k not in units}
+    shown = {**({"time": unit + (" (converted to seconds)" if unit != "s" else "")}
+                if unit_from == "header" else {}), **taken}
+    note = ["units from the header: " + ", ".join(f"{k} {v}" for k, v in shown.items())]
+    return {**units, **taken}, note if shown else []
 
 
 def one_line(exc: Exception) -> str:

@@ -69,7 +69,6 @@ class TimeOptions(Strict):
         return value
 
 
-
 @dataclass(frozen=True)
 class TimeBase:
     """Seconds per row, the display unit, the absolute start; ``as_utc`` when date-times
