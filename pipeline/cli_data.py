@@ -31,7 +31,7 @@ DATA_OPTIONS: tuple[tuple[str, object, typer.models.OptionInfo], ...] = (
                            "(MCAP: /topic:field)")),
     ("output", str, _option("--output", "output column, by name or 0-based position "
                             "(MCAP: /topic:field)")),
-    ("format", str | None, _option("--format", "csv (also tsv, txt), dat, mat, xlsx, parquet "
+    ("format", str | None, _option("--format", "csv (also tsv, txt, text), dat, mat, xlsx, parquet "
                                    "(feather, arrow) or mcap; default: from the suffix")),
     ("time", str | None, _option("--time", "time column, by name or 0-based position: "
                                  "numbers (in --time-unit) or date-times")),

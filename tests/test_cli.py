@@ -372,3 +372,19 @@ def test_real_mat_logs_through_the_registry(name, signals):
     assert r.exit_code == 0, r.output
     (fit,) = json.loads(r.stdout)["records"][0]["fits"]
     assert fit["status"] == "ok" and fit["params"]["K"] > 0
+
+
+def test_help_names_every_format_and_data_option():
+    """The help is written out (the CLI starts without importing the loaders): it must
+    name every format, alias and suffix of the registry, and each data option is a key."""
+    from pipeline.cli_data import DATA_OPTIONS, flag
+    from pipeline.io import FORMATS, DataConfig
+
+    r = runner.invoke(app, ["identify", "--help"])
+    assert r.exit_code == 0
+    text = " ".join(r.output.split())
+    for fmt in FORMATS.values():
+        for word in (fmt.name, *fmt.aliases, *fmt.suffixes):
+            assert word in text, word
+    for name, _, _ in DATA_OPTIONS:
+        assert name in DataConfig.model_fields and flag(name) in text

@@ -210,3 +210,11 @@ def test_mat_structs_and_matrix_columns(tmp_path):
     assert rec.n_samples == 20 and rec.u[-1] == 2.0 and rec.y[3] == 3.5
     rec = _load(tmp_path / "m.mat", time=0, input=3, output=4)  # the file's order
     assert rec.input_name == "log.u" and rec.output_name == "log.y"
+
+
+@pytest.mark.parametrize("name,sep", [("log.txt", ","), ("log.txt", " "), ("log.tsv", "\t")])
+def test_txt_and_tsv_go_through_the_same_reader(tmp_path, name, sep):
+    p = _write(tmp_path, sep.join(["Time", "u", "y"]) + "\n" + _rows(fmt=sep.join(
+        ["{t}", "{u}", "{y}"])), name)
+    rec = _load(p, time="Time")
+    assert rec.n_samples == 20 and rec.t[1] == 0.5
