@@ -16,6 +16,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .cli_data import with_data_options
 from .errors import ExitCode, UserError
 from .version import __version__
 
@@ -118,30 +119,6 @@ def _tolerances(items: list[str]) -> dict[str, float]:
 
 # -- identify / segment ------------------------------------------------------------------
 
-def _data_config(file: Path, input: str, output: str, time: str | None,
-                 sample_time: float | None, initial_input: float | None):
-    """The ``data:`` section of a one-file command; the file's format (from the registry)
-    says how ``--input``/``--output`` name a signal and which time options apply."""
-    from pydantic import ValidationError
-
-    from .io import DataConfig, does_not_apply, format_of
-
-    fmt = format_of(file)
-    given = {k: v for k, v in (("time", time), ("sample_time", sample_time)) if v is not None}
-    for key in given:
-        if key not in fmt.keys:
-            raise UserError(f"{file}: --{key.replace('_', '-')} {does_not_apply(key, fmt)}")
-    if "time" in fmt.keys and not given:  # a format whose time base is a column or a step
-        raise UserError(f"{file}: give --time COLUMN or --sample-time SECONDS")
-    try:
-        return DataConfig(path=str(file), input=fmt.parse_signal(input),
-                          output=fmt.parse_signal(output), initial_input=initial_input, **given)
-    except ValidationError as exc:
-        err0 = exc.errors()[0]
-        opt = "--" + str(err0["loc"][0]).replace("_", "-")
-        raise UserError(f"{opt}: {err0['msg']} (got {err0.get('input')!r})") from None
-
-
 def _list_arg(values: list[str] | None) -> list[str]:
     """``--x a,b`` and ``--x a --x b`` alike."""
     return [v.strip() for item in values or [] for v in item.split(",") if v.strip()]
@@ -169,22 +146,19 @@ def _methods_arg(values: list[str] | None) -> tuple[str, ...] | str:
     return "all" if not ids or "all" in ids else tuple(ids)
 
 
-InputOpt = Annotated[str, typer.Option("--input", help="input column (MCAP: /topic:field)")]
-OutputOpt = Annotated[str, typer.Option("--output", help="output column (MCAP: /topic:field)")]
-TimeOpt = Annotated[str | None, typer.Option("--time", help="time column")]
-TsOpt = Annotated[float | None, typer.Option("--sample-time", help="sample time [s]")]
-U0Opt = Annotated[float | None, typer.Option("--initial-input",
-                                             help="input level before the first row")]
+FileArg = Annotated[Path, typer.Argument(
+    help="a log: .csv/.tsv/.txt, .dat, .mat, .xlsx, .parquet/.feather/.arrow or .mcap")]
 
 
-@app.command()
+@app.command(context_settings={"allow_extra_args": True})
 @handled
+@with_data_options
 def identify(
-    file: Annotated[Path, typer.Argument(help="CSV, .dat or .mcap log")],
-    input: InputOpt, output: OutputOpt, time: TimeOpt = None, sample_time: TsOpt = None,
-    initial_input: U0Opt = None,
+    ctx: typer.Context,
+    file: FileArg,
+    data,
     method: Annotated[list[str] | None, typer.Option(
-        "--method", help="method ids, 'all' (default); repeat or separate with commas")]
+        "--method", help="method ids, 'all' (default): --method a,b or --method a --method b")]
     = None,
     events: Annotated[str, typer.Option(help="identification events: 'all' or 0,2")] = "0",
     as_json: Annotated[bool, typer.Option("--json", help="print results JSON to stdout")]
@@ -197,8 +171,11 @@ def identify(
     from .results import results_json
     from .run import identify_file
 
+    if ctx.args:
+        raise UserError(f"unexpected argument {ctx.args[0]!r}: give several methods or events "
+                        "with commas (--method first_order,smith, --events 0,2) or repeat "
+                        "the option (--method first_order --method smith)")
     options = AnalysisOptions(events=_events_arg(events), methods=_methods_arg(method))
-    data = _data_config(file, input, output, time, sample_time, initial_input)
     run_ = identify_file(file, data, options, out_dir=out_dir)
     if as_json:
         sys.stdout.write(results_json(run_.to_doc()))
@@ -234,10 +211,10 @@ def _print_ranking(res) -> None:
 
 @app.command()
 @handled
+@with_data_options
 def segment(
-    file: Annotated[Path, typer.Argument(help="CSV, .dat or .mcap log")],
-    input: InputOpt, output: OutputOpt, time: TimeOpt = None, sample_time: TsOpt = None,
-    initial_input: U0Opt = None,
+    file: FileArg,
+    data,
     as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
 ) -> None:
     """Print the step and impulse events found in a log."""
@@ -248,8 +225,7 @@ def segment(
     from .results import event_doc
     from .segment import segment as find_events
 
-    record = load_record(file, _data_config(file, input, output, time, sample_time,
-                                            initial_input))
+    record = load_record(file, data)
     events = find_events(record)
     if as_json:
         docs = [event_doc(e, "unused").model_dump(mode="json", exclude={"role"})

@@ -15,9 +15,12 @@ class Record:
 
     ``t`` is strictly increasing (seconds), ``u`` and ``y`` are the input and output,
     all float64 1-D arrays of equal length, read-only (the record owns copies).
-    ``sample_time`` is ``None`` when the grid is irregular. ``initial_input`` is the
-    input level declared to hold *before* the first row (e.g. DaISy's 6.0 V): when it
-    differs from ``u[0]`` a step happens at ``t[0]`` that is invisible in the input column.
+    ``sample_time`` is ``None`` when the grid is irregular. ``units["time"]`` is the unit
+    the user reads times in (``t`` is seconds whatever it says; :func:`in_time_unit`
+    converts); ``start`` is the absolute time of ``t[0]`` (ISO-8601 with its offset) when
+    the log has date-times. ``initial_input`` is the input level declared to hold *before*
+    the first row (e.g. DaISy's 6.0 V): when it differs from ``u[0]`` a step happens at
+    ``t[0]`` that is invisible in the input column.
     """
 
     t: np.ndarray
@@ -31,10 +34,45 @@ class Record:
     input_name: str = "u"
     output_name: str = "y"
     notes: tuple[str, ...] = ()  # warnings from loading (gaps, unindexed scan, ...)
+    start: str | None = None  # the absolute time of t[0], ISO-8601 with offset, when known
 
     @property
     def n_samples(self) -> int:
         return int(self.t.size)
+
+
+#: The time units a log may be in: name -> (numerator, denominator) of one unit in seconds,
+#: so that ms -> s divides by 1000 (exactly rounded) instead of multiplying by 0.001.
+TIME_UNITS: dict[str, tuple[int, int]] = {"s": (1, 1), "ms": (1, 1000), "min": (60, 1),
+                                          "h": (3600, 1)}
+
+#: Other spellings of the time units (headers such as ``Zeit [sec]``).
+TIME_UNIT_ALIASES: dict[str, str] = {
+    "sec": "s", "second": "s", "seconds": "s", "msec": "ms", "millisecond": "ms",
+    "milliseconds": "ms", "minute": "min", "minutes": "min", "hr": "h", "hour": "h",
+    "hours": "h",
+}
+
+
+def time_unit(text: str) -> str | None:
+    """The time unit a text names (``"ms"``, ``"sec"``, ``"Hours"``), or None."""
+    key = text.strip().lower()
+    return key if key in TIME_UNITS else TIME_UNIT_ALIASES.get(key)
+
+
+def to_seconds(values, unit: str):
+    """Times in ``unit`` (a name of :data:`TIME_UNITS`) as seconds."""
+    num, den = TIME_UNITS[unit]
+    return values * num / den if num != 1 else values / den
+
+
+def in_time_unit(seconds, unit: str | None):
+    """Seconds shown in the user's time unit (``record.units.get("time")``; None or an
+    unknown name: seconds), e.g. a time constant of 450 s as 7.5 min."""
+    if unit is None or time_unit(unit) is None:
+        return seconds
+    num, den = TIME_UNITS[time_unit(unit)]
+    return seconds * den / num if den != 1 else seconds / num
 
 
 #: A time step this many times the median interval is a broken log, not a sample.
@@ -55,7 +93,7 @@ def infer_sample_time(t: np.ndarray, rel_tol: float = 1e-6) -> float | None:
 def make_record(
     t, u, y, *, name: str, source: str, units: dict[str, str] | None = None,
     initial_input: float | None = None, input_name: str = "u", output_name: str = "y",
-    notes: tuple[str, ...] = (),
+    notes: tuple[str, ...] = (), start: str | None = None,
 ) -> Record:
     """Validate arrays and build a :class:`Record`; a problem is a :class:`UserError`."""
     t, u, y = (np.array(a, dtype=np.float64, copy=True) for a in (t, u, y))
@@ -91,5 +129,5 @@ def make_record(
     return Record(
         t=t, u=u, y=y, name=name, source=source, units=dict(units or {}),
         sample_time=infer_sample_time(t), initial_input=initial_input,
-        input_name=input_name, output_name=output_name, notes=tuple(notes),
+        input_name=input_name, output_name=output_name, notes=tuple(notes), start=start,
     )

@@ -134,6 +134,8 @@ class RecordDoc(_Doc):
     n_samples: int = 0
     sample_time: float | None = None
     units: dict[str, str] = Field(default_factory=dict)
+    start: str | None = Field(None, description="the absolute time of the first sample "
+                              "(ISO-8601 with offset), when the log has date-times")
     notes: list[str] = Field(default_factory=list)
     events: list[EventDoc] = Field(default_factory=list)
     fits: list[FitDoc] = Field(default_factory=list)

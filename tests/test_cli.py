@@ -258,3 +258,133 @@ def test_bad_run_options_are_one_line(tmp_path, extra, needle):
     _one_line_error(runner.invoke(app, ["run", str(c), "--out", str(tmp_path / "o"), *extra]),
                     needle)
     assert not (tmp_path / "o").exists()
+
+
+# -- data options ------------------------------------------------------------------------
+
+def _identify(path, *extra):
+    return runner.invoke(app, ["identify", str(path), *extra])
+
+
+@pytest.mark.parametrize("methods", [["--method", "first_order,smith"],
+                                     ["--method", "first_order", "--method", "smith"]])
+def test_method_lists(tmp_path, methods):
+    r = _identify(_csv(tmp_path), "--input", "u", "--output", "y", "--time", "time",
+                  *methods, "--events", "0,1", "--json")
+    assert r.exit_code == 0, r.output
+    fits = json.loads(r.stdout)["records"][0]["fits"]
+    assert sorted({f["method"] for f in fits}) == ["first_order", "smith"]
+    assert {f["event"] for f in fits} == {0, 1}
+
+
+@pytest.mark.parametrize("extra", [["--method", "first_order", "smith"],
+                                   ["--events", "0", "1"]])
+def test_two_words_for_a_list_is_one_line(tmp_path, extra):
+    r = _identify(_csv(tmp_path), "--input", "u", "--output", "y", "--time", "time", *extra)
+    _one_line_error(r, "unexpected argument", "with commas (--method first_order,smith",
+                    "repeat the option")
+
+
+def test_time_and_sample_time_exclude_each_other(tmp_path):
+    p = _csv(tmp_path)
+    r = _identify(p, "--input", "u", "--output", "y", "--time", "time", "--sample-time", "0.1")
+    _one_line_error(r, f"{p}: --sample-time: a sample time and a time column exclude each "
+                    "other; give one (got 0.1)")
+
+
+def test_data_options_reach_the_reader(tmp_path):
+    """--format, --no-header, positions, --delimiter and --decimal, --time-unit."""
+    src = _csv(tmp_path).read_text().splitlines()[1:]
+    p = tmp_path / "export.log"
+    p.write_text("\n".join(line.replace(",", ";").replace(".", ",") for line in src) + "\n")
+    args = ["--input", "1", "--output", "2", "--time", "0", "--method", "first_order", "--json"]
+    r = _identify(p, *args, "--format", "tsv", "--no-header", "--delimiter", ";",
+                  "--decimal", ",")
+    assert r.exit_code == 0, r.output
+    fit = json.loads(r.stdout)["records"][0]["fits"][0]
+    assert fit["params"]["K"] == pytest.approx(2.5, rel=0.02)
+    r = _identify(p, *args, "--format", "tsv", "--time-unit", "min")
+    assert r.exit_code == 0, r.output
+    rec = json.loads(r.stdout)["records"][0]
+    assert rec["units"]["time"] == "min" and rec["events"][0]["t0"] == pytest.approx(13.7 * 60)
+    r = _identify(p, *args, "--format", "tsv", "--sheet", "1")
+    _one_line_error(r, f"{p}: --sheet does not apply to csv files (it is an option of: xlsx)")
+    _one_line_error(_identify(p, *args), f"{p}: unknown file type '.log'")
+
+
+def test_start_is_in_results_json(tmp_path):
+    from tests.forms import FORMS, synthetic_log
+
+    path, _ = FORMS["datetime_local_dst"][0](synthetic_log(), tmp_path)
+    r = _identify(path, "--input", "u", "--output", "y", "--time", "time", "--time-zone",
+                  "Europe/Berlin", "--method", "first_order", "--json")
+    assert r.exit_code == 0, r.output
+    rec = json.loads(r.stdout)["records"][0]
+    assert rec["start"] == "2024-10-27T02:58:00+02:00"
+    assert [round(e["t0"], 1) for e in rec["events"]] == [13.7, 113.7]
+
+
+def _bad_variants(tmp_path):
+    from tests.forms import FORMS, synthetic_log
+
+    log = synthetic_log()
+    xlsx, _ = FORMS["xlsx"][0](log, tmp_path)
+    mat, _ = FORMS["mat_v5"][0](log, tmp_path)
+    mixed = tmp_path / "mixed.csv"
+    mixed.write_text("time,1.5,y\n" + "".join(f"{i / 10},1,2\n" for i in range(20)))
+    stamps = tmp_path / "stamps.csv"
+    stamps.write_text("time,u,y\n" + "".join(f"2024-10-27 02:{i:02d}:00,1,2\n" for i in range(9))
+                      + "2024-10-27 02:61:00,1,2\n")
+    return [
+        (mixed, ["--time", "time"], f"{mixed}: line 1 mixes names and numbers ('time', '1.5', "
+         "'y'): cannot tell whether it is a header; expected a header of names or a row of "
+         "numbers, or set header: true or false (--header / --no-header)"),
+        (xlsx, ["--time", "time", "--sheet", "Data"],
+         f"{xlsx}: no sheet 'Data'; the sheets are 'Info', 'Log'"),
+        (mat, ["--time", "Zeit", "--output", "Speed"],
+         f"{mat}: no variable 'Speed'; the variables are 'Zeit', 'u', 'y'"),
+        (mat, ["--time", "Ts"], f"{mat}: variable 'Ts' has 1 value(s), where the signals have "
+         "2138 samples"),
+        (stamps, ["--time", "time"], f"{stamps}: line 11: time column 'time' has "
+         "'2024-10-27 02:61:00'; expected a number or an ISO-8601 date-time such as "
+         "2024-10-27T02:30:00+02:00 (or set time_format)"),
+    ]
+
+
+def test_bad_variants_are_one_line_naming_file_and_expectation(tmp_path):
+    for path, extra, expected in _bad_variants(tmp_path):
+        args = ["--input", "u", "--output", "y", *extra]
+        r = _identify(path, *args)
+        _one_line_error(r)
+        assert r.stderr.strip() == f"error: {expected}"
+
+
+@pytest.mark.skipif(not have_mirror(), reason="needs the dataset mirror")
+@pytest.mark.parametrize("name,signals", [
+    ("daniw-dc-step", ["Motorspannung", "Geschwindigkeit"]),
+    ("daniw-level-step", ["PumpeRechts", "NiveauTank2"]),
+])
+def test_real_mat_logs_through_the_registry(name, signals):
+    from pipeline.datasets import fetch
+
+    r = _identify(fetch(name), "--input", signals[0], "--output", signals[1], "--time", "Zeit",
+                  "--method", "first_order", "--json")
+    assert r.exit_code == 0, r.output
+    (fit,) = json.loads(r.stdout)["records"][0]["fits"]
+    assert fit["status"] == "ok" and fit["params"]["K"] > 0
+
+
+def test_help_names_every_format_and_data_option():
+    """The help is written out (the CLI starts without importing the loaders): it must
+    name every format, alias and suffix of the registry, and each data option is a key."""
+    from pipeline.cli_data import DATA_OPTIONS, flag
+    from pipeline.io import FORMATS, DataConfig
+
+    r = runner.invoke(app, ["identify", "--help"])
+    assert r.exit_code == 0
+    text = " ".join(r.output.split())
+    for fmt in FORMATS.values():
+        for word in (fmt.name, *fmt.aliases, *fmt.suffixes):
+            assert word in text, word
+    for name, _, _ in DATA_OPTIONS:
+        assert name in DataConfig.model_fields and flag(name) in text

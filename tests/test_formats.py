@@ -16,6 +16,7 @@ from pipeline.config import config_from_dict
 from pipeline.errors import UserError
 from pipeline.io import FORMATS, DataConfig, load_record
 from pipeline.io.options import FORMAT_KEYS
+from pipeline.io.registry import NAMES
 from pipeline.run import effective_data, resolve_specs
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -23,10 +24,15 @@ EXAMPLES_DIR = ROOT / "datasets" / "examples"
 CSV = str(EXAMPLES_DIR / "jakoubek" / "system1.csv")
 MCAP = str(EXAMPLES_DIR / "lamp_plate.mcap")
 
-#: format -> a data section that loads the format's example, and its sample count
+#: format -> a data section that loads the format's example, and its sample count; the
+#: relative paths are written from the CSV example by the ``written`` fixture
 EXAMPLES: dict[str, tuple[dict, int]] = {
     "csv": ({"path": CSV, "input": "u", "output": "y", "time": "time"}, 2301),
     "dat": ({"dataset": "daisy-heating", "columns": ["time", "u", "y"]}, 801),
+    "mat": ({"dataset": "daniw-dc-step"}, 1101),
+    "xlsx": ({"path": "system1.xlsx", "sheet": "log", "input": "u", "output": "y",
+              "time": "time"}, 2301),
+    "parquet": ({"path": "system1.parquet", "input": 1, "output": "y", "time": 0}, 2301),
     "mcap": ({"path": MCAP, "input": {"topic": "/lamp/cmd", "field": "data"},
               "output": {"topic": "/plate/temp", "field": "temperature.value"},
               "sample_time": 0.5, "max_gap": 5.0}, 600),
@@ -34,19 +40,34 @@ EXAMPLES: dict[str, tuple[dict, int]] = {
 
 #: a value of the right type for every format key (to give it where it does not apply)
 VALUES = {"time": "time", "sample_time": 0.5, "columns": ["time", "u", "y"],
-          "stamp": "header.stamp", "max_gap": 5.0}
+          "stamp": "header.stamp", "max_gap": 5.0, "time_unit": "ms", "time_zone": "UTC",
+          "time_format": "%Y-%m-%d %H:%M:%S", "delimiter": "comma", "decimal": ".",
+          "header": True, "sheet": "log", "duplicates": "mean", "fill_gaps": 2,
+          "long_gaps": "keep_longest", "trailing_lines": "skip"}
 
 
-def _load(section: dict):
-    cfg = config_from_dict({"data": section}, source="c.yaml", base_dir=str(ROOT))
+@pytest.fixture(scope="module")
+def written(tmp_path_factory) -> Path:
+    """The CSV example as a workbook and a Parquet file."""
+    import polars as pl
+
+    folder = tmp_path_factory.mktemp("examples")
+    frame = pl.read_csv(CSV)
+    frame.write_excel(folder / "system1.xlsx", worksheet="log")
+    frame.write_parquet(folder / "system1.parquet")
+    return folder
+
+
+def _load(section: dict, base: Path = ROOT):
+    cfg = config_from_dict({"data": section}, source="c.yaml", base_dir=str(base))
     (spec,) = resolve_specs(cfg)
     return load_record(Path(spec.path), effective_data(cfg, spec), name=spec.name)
 
 
 @pytest.mark.parametrize("name", FORMATS)
-def test_every_format_loads_its_example(name):
+def test_every_format_loads_its_example(name, written):
     section, n = EXAMPLES[name]
-    rec = _load(section)
+    rec = _load(section, written if not Path(section.get("path", "/")).is_absolute() else ROOT)
     assert rec.n_samples == n
     assert Path(rec.source).suffix in FORMATS[name].suffixes
 
@@ -74,12 +95,15 @@ def test_a_key_of_another_format_is_one_line(name, key):
      "c.yaml: key 'data.stamp' does not apply to dat files (it is an option of: mcap)"),
     ({"path": "a.mcap", "input": {"topic": "/u", "field": "data"},
       "output": {"topic": "/y", "field": "data"}, "columns": ["t", "u", "y"]},
-     "c.yaml: key 'data.columns' does not apply to mcap files (it is an option of: dat)"),
+     "c.yaml: key 'data.columns' does not apply to mcap files (it is an option of: csv, dat, "
+     "xlsx)"),
     # the format known from a glob's suffix, a declared format, a list of paths, a dataset
     ({"path": "logs/*.csv", "input": "u", "output": "y", "max_gap": 2.0},
      "c.yaml: key 'data.max_gap' does not apply to csv files (it is an option of: mcap)"),
-    ({"path": "logs/a.log", "format": "csv", "input": "u", "output": "y", "columns": ["u"]},
-     "c.yaml: key 'data.columns' does not apply to csv files (it is an option of: dat)"),
+    ({"path": "logs/a.log", "format": "csv", "input": "u", "output": "y", "sheet": 1},
+     "c.yaml: key 'data.sheet' does not apply to csv files (it is an option of: xlsx)"),
+    ({"path": "logs/a.log", "format": "tsv", "input": "u", "output": "y", "sheet": 1},
+     "c.yaml: key 'data.sheet' does not apply to csv files (it is an option of: xlsx)"),
     ({"paths": ["a.csv", "b.mcap"], "input": "u", "output": "y", "stamp": "s"},
      "c.yaml: key 'data.stamp' does not apply to csv files (it is an option of: mcap)"),
     ({"dataset": "daisy-heating", "stamp": "header.stamp"},
@@ -97,8 +121,19 @@ def test_a_key_of_another_format_is_one_line(name, key):
     ({"path": "a.dat", "input": "u", "output": "y", "columns": []},
      "c.yaml: key 'data.columns': List should have at least 1 item after validation, not 0 "
      "(got [])"),
-    ({"path": "a.csv", "format": "xlsx", "input": "u", "output": "y"},
-     "c.yaml: key 'data.format': Input should be 'csv', 'dat' or 'mcap' (got 'xlsx')"),
+    ({"path": "a.csv", "format": "xls", "input": "u", "output": "y"},
+     "c.yaml: key 'data.format': Input should be 'csv', 'dat', 'mat', 'xlsx', 'parquet', "
+     "'mcap', 'tsv', 'txt', 'text', 'feather' or 'arrow' (got 'xls')"),
+    # keys that exclude each other, or a value only the format's model knows is wrong
+    ({"path": "a.csv", "input": "u", "output": "y", "time": "t", "sample_time": 0.5},
+     "c.yaml: key 'data.sample_time': a sample time and a time column exclude each other; "
+     "give one (got 0.5)"),
+    ({"path": "a.xlsx", "input": "u", "output": "y", "time": "t", "time_zone": "Mars/Base"},
+     "c.yaml: key 'data.time_zone': unknown time zone 'Mars/Base'; expected an IANA name such "
+     "as Europe/Berlin or UTC (got 'Mars/Base')"),
+    ({"path": "a.csv", "input": "u", "output": "y", "time": "t", "delimiter": "pipe"},
+     "c.yaml: key 'data.delimiter': Input should be 'tab', 'semicolon', 'comma' or "
+     "'whitespace' (got 'pipe')"),
 ])
 def test_data_keys_at_config_load(section, expected):
     with pytest.raises(UserError) as exc:
@@ -126,12 +161,13 @@ def test_load_record_rejects_a_key_of_another_format():
     with pytest.raises(UserError) as exc:
         load_record(Path(MCAP), data)
     assert exc.value.message == (f"{MCAP}: key 'data.time' does not apply to mcap files "
-                                 "(it is an option of: csv, dat)")
+                                 "(it is an option of: csv, dat, mat, xlsx, parquet)")
 
 
 def test_format_choices_are_the_registry():
     schema = DataConfig.model_json_schema()["properties"]["format"]["anyOf"][0]
-    assert schema["enum"] == list(FORMATS)
+    assert schema["enum"] == list(NAMES)
+    assert set(NAMES) == set(FORMATS) | {a for f in FORMATS.values() for a in f.aliases}
 
 
 def test_cli_time_option_on_an_mcap_log_is_rejected():
@@ -139,14 +175,32 @@ def test_cli_time_option_on_an_mcap_log_is_rejected():
                                  "--output", "/plate/temp:temperature.value", "--time", "t"])
     assert r.exit_code == 2
     assert r.stderr.strip() == (f"error: {MCAP}: --time does not apply to mcap files "
-                                "(it is an option of: csv, dat)")
+                                "(it is an option of: csv, dat, mat, xlsx, parquet)")
 
 
-def test_readme_table_lists_every_format():
+def _readme_rows() -> dict[str, list[str]]:
+    """README table rows by their first cell (without backticks and aliases)."""
     text = (ROOT / "README.md").read_text()
-    rows = {line.split("|")[1].strip(" `"): line for line in text.splitlines()
-            if line.startswith("| `")}
+    return {line.split("|")[1].split("(")[0].strip(" `"): [c.strip() for c in line.split("|")]
+            for line in text.splitlines() if line.startswith("| `")}
+
+
+def test_readme_tables_list_every_format_and_key():
+    """The formats table names each format's suffixes, aliases and own keys (those beyond
+    the keys every table takes); the keys table names each key's formats and option."""
+    from pipeline.cli_data import DATA_OPTIONS, flag
+    from pipeline.io.registry import formats_taking
+    from pipeline.io.table import TableOptions
+
+    rows = _readme_rows()
+    shared = set(TableOptions.model_fields)
     for name, fmt in FORMATS.items():
-        row = rows[name]
-        for word in (*fmt.suffixes, *fmt.keys):
+        row = "|".join(rows[name])
+        own = fmt.keys - shared if issubclass(fmt.options, TableOptions) else fmt.keys
+        for word in (*fmt.suffixes, *fmt.aliases, *own):
             assert f"`{word}`" in row, (name, word)
+    options = {name for name, _, _ in DATA_OPTIONS}
+    for key in FORMAT_KEYS:
+        cells = rows[key]
+        assert cells[2] == ", ".join(formats_taking(key)), key
+        assert (flag(key) in cells[3]) == (key in options), key

@@ -55,6 +55,10 @@ def test_daisy_dat():
     ("time,u,y\n", "no data rows"),
     ("time,u,y\n" + "".join(f"{i},1,2\n" for i in range(12)) + "3,1,2\n",
      "time is not strictly increasing"),
+    ("time,u,y\n" + "".join(f"{i},1,2\n" for i in range(12)) + "12,1,2,7\n13,1,2\n",
+     "line 14: 4 fields where line 1 has 3; expected the same number of fields on every row"),
+    ("time,u,y\n" + "".join(f"{i},1,2\n" for i in range(12)) + "12,1\n13,1,2\n",
+     "line 14: column 'y' is empty (a drop-out)"),
 ])
 def test_bad_csv_is_one_line(tmp_path, content, expected):
     p = tmp_path / "bad.csv"
@@ -79,8 +83,11 @@ def test_binary_garbage(tmp_path):
 
 
 @pytest.mark.parametrize("last,expected", [
-    ("  100.0  9.000  abc\n", "line 51, column 3: 'abc' is not a number"),
-    ("  100.0  9.000\n", "line 51: 2 columns where the lines before have 3"),
+    ("  100.0  9.000  abc\n", "line 51: column 'y' has 'abc'; expected a number"),
+    ("  100.0  9.000\n", "line 51: '100.0 9.000' is not a data row after the data; expected "
+     "3 fields of numbers, or set trailing_lines: skip"),
+    ("  100.0  9.000\n" + "  102.0  9.000  150.0\n",
+     "line 51: 2 fields where line 1 has 3; expected the same number of fields on every row"),
 ])
 def test_bad_dat_names_the_file_line(tmp_path, last, expected):
     p = tmp_path / "bad.dat"

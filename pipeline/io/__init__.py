@@ -1,10 +1,14 @@
 """Loaders: one module per input format, all returning :class:`~pipeline.record.Record`.
 
-The formats (:mod:`.registry`): ``csv`` (:mod:`.csv`), ``dat`` (:mod:`.dat`: whitespace
-numbers, no header) and ``mcap`` (:mod:`.mcap`). Each module says which ``data:`` keys it
-takes in its options model; :mod:`.options` builds the config's ``data:`` section from
-them and rejects a key of another format. :mod:`.align` puts two separately sampled
-signals onto one grid.
+The formats (:mod:`.registry`): ``csv`` (:mod:`.delimited`: delimited text, ``.csv``,
+``.tsv``, ``.txt``), ``dat`` (:mod:`.dat`: DaISy's whitespace numbers, no header), ``mat``
+(:mod:`.mat`), ``xlsx`` (:mod:`.excel`), ``parquet`` (:mod:`.columnar`: Parquet and Arrow
+IPC) and ``mcap`` (:mod:`.mcap`). Each module says which ``data:`` keys it takes in its
+options model; the tabular formats share :class:`~.table.TableOptions` (the time base of
+:mod:`.timebase` and the quirk policies of :mod:`.quirks`) and the step from a table to a
+record (:mod:`.table`). :mod:`.options` builds the config's ``data:`` section from them and
+rejects a key of another format. :mod:`.align` puts two separately sampled signals onto
+one grid.
 """
 
 from __future__ import annotations

@@ -8,13 +8,14 @@ formats; nothing else names them.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from ..errors import UserError
 from ..record import Record
 
 
@@ -44,8 +45,8 @@ class DataSection(Strict):
     path: str | None = Field(None, description="a file, a folder or a glob")
     paths: list[str] | None = None
     format: str | None = None
-    input: str | SignalConfig | None = None
-    output: str | SignalConfig | None = None
+    input: str | int | SignalConfig | None = None
+    output: str | int | SignalConfig | None = None
     initial_input: float | None = None
     units: dict[Literal["time", "input", "output"], str] | None = None
 
@@ -58,8 +59,26 @@ Loader = Callable[[Path, DataSection, Strict, str], Record]
 
 
 def column_name(text: str) -> str:
-    """A tabular format's ``--input``/``--output``: the column name as given."""
+    """A tabular format's ``--input``/``--output``: the column name (or position) as given."""
     return text
+
+
+@dataclass(frozen=True)
+class Places:
+    """Where each data row of a table is in its file, for error lines and notes:
+    ``places(i)`` is e.g. ``line 14`` or ``sheet 'Log' row 14``."""
+
+    path: Path
+    numbers: Sequence[int]
+    word: str = "line"
+    prefix: str = ""
+
+    def __call__(self, i: int) -> str:
+        return f"{self.prefix}{self.word} {self.numbers[i]}"
+
+    def error(self, i: int, text: str) -> UserError:
+        """``FILE: line N: text`` as a :class:`UserError`."""
+        return UserError(f"{self.path}: {self(i)}: {text}")
 
 
 @dataclass(frozen=True)
@@ -68,7 +87,8 @@ class Format:
 
     ``options`` is the model of the ``data:`` keys that apply to this format (every field
     optional; its defaults are the format's); ``parse_signal`` turns a command-line
-    ``--input``/``--output`` into the ``data.input``/``data.output`` value.
+    ``--input``/``--output`` into the ``data.input``/``data.output`` value; ``aliases``
+    are other names ``data.format`` may give it (``tsv`` for ``csv``).
     """
 
     name: str
@@ -76,6 +96,7 @@ class Format:
     options: type[Strict]
     load: Loader
     parse_signal: Callable[[str], str | SignalConfig] = column_name
+    aliases: tuple[str, ...] = ()
 
     @property
     def keys(self) -> frozenset[str]:

@@ -13,19 +13,20 @@ or globs with a known suffix, a registry dataset), else per file when a run reso
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import create_model
+from pydantic import ValidationError, create_model
 from pydantic.fields import FieldInfo
 
 from ..datasets import load_registry
 from ..errors import UserError
 from .base import DataSection, Format, SignalConfig, Strict
-from .registry import FORMATS, SUFFIXES, find_format, formats_taking
+from .registry import FORMATS, NAMES, SUFFIXES, find_format, formats_taking
 
 __all__ = ["DataConfig", "SignalConfig", "check_file", "check_keys", "check_section",
-           "does_not_apply", "format_keys", "options_for"]
+           "config_key", "does_not_apply", "format_keys", "options_for"]
 
 
 def _format_fields() -> dict[str, tuple[Any, FieldInfo]]:
@@ -48,7 +49,7 @@ DataConfig: type[DataSection] = create_model(
     "DataConfig", __base__=DataSection, __module__=__name__,
     __doc__="Where the log is, which signals are the input and the output, and the keys of "
             "its format (one model per format in pipeline.io).",
-    format=(Literal[tuple(FORMATS)] | None, None), **_format_fields(),
+    format=(Literal[tuple(NAMES)] | None, None), **_format_fields(),
 )
 
 #: The keys that belong to a format (not common to all).
@@ -79,10 +80,24 @@ def check_keys(data: DataSection, fmt: Format, where: str, matched: Path | None 
             raise UserError(f"{where}: key 'data.{key}' {does_not_apply(key, fmt)}{also}")
 
 
-def options_for(data: DataSection, fmt: Format, where: str) -> Strict:
-    """The section's keys for ``fmt`` as ``fmt``'s options model (its defaults filled in)."""
+def config_key(key: str) -> str:
+    """How a config names a data key in an error: ``key 'data.time'``."""
+    return f"key 'data.{key}'"
+
+
+def options_for(data: DataSection, fmt: Format, where: str,
+                label: Callable[[str], str] = config_key) -> Strict:
+    """The section's keys for ``fmt`` as ``fmt``'s options model (its defaults filled in);
+    a key of another format, or keys that contradict each other, are a :class:`UserError`
+    naming the key as ``label`` does (the config's key path, or the command-line option)."""
     check_keys(data, fmt, where)
-    return fmt.options.model_validate(format_keys(data))
+    try:
+        return fmt.options.model_validate(format_keys(data))
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        key = ".".join(str(p) for p in err["loc"][:1])
+        msg = err["msg"].removeprefix("Value error, ")
+        raise UserError(f"{where}: {label(key)}: {msg} (got {err.get('input')!r})") from None
 
 
 def section_formats(data: DataSection) -> list[Format] | None:
@@ -90,10 +105,10 @@ def section_formats(data: DataSection) -> list[Format] | None:
     format, a registry dataset's format, or file names and globs with known suffixes. None
     when only the files will tell (a folder, a glob without a suffix, an unknown dataset)."""
     if data.format:
-        return [FORMATS[data.format]]
+        return [NAMES[data.format]]
     if data.dataset:
         ds = load_registry().get(data.dataset)
-        fmt = FORMATS.get(ds.format) if ds is not None else None
+        fmt = NAMES.get(ds.format) if ds is not None else None
         return [fmt] if fmt is not None else None
     patterns = [data.path] if data.path else list(data.paths or [])
     found = [SUFFIXES.get(Path(p).suffix.lower()) for p in patterns]
@@ -103,11 +118,12 @@ def section_formats(data: DataSection) -> list[Format] | None:
 
 
 def check_section(data: DataSection, source: str) -> None:
-    """At config load: the format keys against the formats the section names, if it does."""
+    """At config load: the format keys against the formats the section names, if it does
+    (keys of another format, keys that contradict each other)."""
     if not format_keys(data):
         return  # nothing to check (and no registry to read)
     for fmt in section_formats(data) or []:
-        check_keys(data, fmt, source)
+        options_for(data, fmt, source)
 
 
 def check_file(data: DataSection, path: Path, source: str) -> None:

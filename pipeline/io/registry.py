@@ -11,19 +11,23 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import UserError
-from . import csv, dat, mcap
+from . import columnar, dat, delimited, excel, mat, mcap
 from .base import Format
 
-FORMATS: dict[str, Format] = {f.name: f for f in (csv.FORMAT, dat.FORMAT, mcap.FORMAT)}
+FORMATS: dict[str, Format] = {f.name: f for f in (
+    delimited.FORMAT, dat.FORMAT, mat.FORMAT, excel.FORMAT, columnar.FORMAT, mcap.FORMAT)}
 
 #: file suffix (lower case, with the dot) -> format
 SUFFIXES: dict[str, Format] = {s: f for f in FORMATS.values() for s in f.suffixes}
+
+#: what ``data.format`` may say: the names and their aliases (``tsv`` -> csv)
+NAMES: dict[str, Format] = {**FORMATS, **{a: f for f in FORMATS.values() for a in f.aliases}}
 
 
 def find_format(path: Path, declared: str | None = None) -> Format | None:
     """The declared format, else the one of the file's suffix; None when neither is known."""
     if declared:
-        return FORMATS.get(declared)
+        return NAMES.get(declared)
     return SUFFIXES.get(path.suffix.lower())
 
 
@@ -34,7 +38,7 @@ def format_of(path: Path, declared: str | None = None) -> Format:
         return fmt
     if declared:
         raise UserError(f"{path}: unknown format {declared!r}; expected one of: "
-                        f"{', '.join(FORMATS)}")
+                        f"{', '.join(NAMES)}")
     *most, last = SUFFIXES
     raise UserError(
         f"{path}: unknown file type {path.suffix!r}; expected {', '.join(most)} or {last} "
