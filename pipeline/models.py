@@ -94,6 +94,15 @@ class Parameter:
             return f"rad/{time}"
         return ""
 
+    def time_power(self, integrating: bool = False) -> int:
+        """How the value scales with the time unit: +1 a time, -1 a rate (a frequency, the
+        gain of an integrator), 0 otherwise."""
+        if self.kind == "time":
+            return 1
+        if self.kind == "frequency" or (self.kind == "gain" and integrating):
+            return -1
+        return 0
+
     def format(self, value: float, digits: int | None = None) -> str:
         """``value`` with this parameter's significant digits (integers stay integers)."""
         v = float(value)

@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..record import Record  # noqa: E402
+from ..record import Record, in_time_unit  # noqa: E402
 
 ROLE_COLOURS = {"identification": "#4c72b0", "validation": "#55a868", "unused": "#bbbbbb"}
 DPI = 110
@@ -36,6 +36,11 @@ def _label(record: Record, which: str) -> str:
     return f"{which} {name} [{unit}]" if unit else f"{which} {name}"
 
 
+def _tu(record: Record, seconds):
+    """Times in the user's time unit (the data are in seconds)."""
+    return in_time_unit(seconds, record.units.get("time"))
+
+
 def _time_label(record: Record) -> str:
     return f"time [{record.units.get('time', 's')}]"
 
@@ -44,13 +49,13 @@ def _shade(ax, record: Record, events, roles, *, labels: bool) -> None:
     seen = set()
     for ev in events:
         role = roles.get(ev.index, "unused")
-        t1 = record.t[ev.i_end - 1]
-        ax.axvspan(ev.t0, t1, color=ROLE_COLOURS[role], alpha=0.12,
+        t0, t1 = _tu(record, ev.t0), _tu(record, record.t[ev.i_end - 1])
+        ax.axvspan(t0, t1, color=ROLE_COLOURS[role], alpha=0.12,
                    label=f"{role} event" if labels and role not in seen else None)
         seen.add(role)
-        ax.axvline(ev.t0, color=ROLE_COLOURS[role], lw=0.8, ls="--")
+        ax.axvline(t0, color=ROLE_COLOURS[role], lw=0.8, ls="--")
         if labels:
-            ax.annotate(f"#{ev.index} {ev.kind}", (ev.t0, 1.0), xycoords=("data", "axes fraction"),
+            ax.annotate(f"#{ev.index} {ev.kind}", (t0, 1.0), xycoords=("data", "axes fraction"),
                         xytext=(3, -12), textcoords="offset points", fontsize=8,
                         color=ROLE_COLOURS[role])
 
@@ -59,8 +64,9 @@ def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     """The whole record: output on top, input below, events shaded and numbered."""
     fig, (ax_y, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(11, 5.2),
                                      gridspec_kw={"height_ratios": [2, 1]})
-    ax_y.plot(record.t, record.y, color="#333333", lw=0.9, label="measured output")
-    ax_u.step(record.t, record.u, where="post", color="#c44e52", lw=1.0, label="input")
+    t = _tu(record, record.t)
+    ax_y.plot(t, record.y, color="#333333", lw=0.9, label="measured output")
+    ax_u.step(t, record.u, where="post", color="#c44e52", lw=1.0, label="input")
     for ax in (ax_y, ax_u):
         _shade(ax, record, events, roles, labels=ax is ax_y)
         ax.grid(alpha=0.3)
@@ -77,12 +83,13 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
             dpi: int = DPI) -> bytes:
     """Measured output over ``sl`` with model curves; optional read points ``marks``."""
     fig, ax = plt.subplots(figsize=(11, 4.2))
-    t = record.t[sl]
+    t = _tu(record, record.t[sl])
     ax.plot(t, record.y[sl], color="#222222", lw=1.4, alpha=0.8, label="measured")
     styles = ["-", "--", "-.", ":"]
     for k, (name, yh) in enumerate(curves):
         ax.plot(t, yh, lw=1.3, ls=styles[(k // 10) % 4], label=name)
     for tm, ym, text in marks:
+        tm = _tu(record, tm)
         ax.plot([tm], [ym], "o", ms=4, color="black")
         ax.annotate(text, (tm, ym), xytext=(4, 4), textcoords="offset points", fontsize=7)
     if events:

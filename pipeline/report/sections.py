@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..record import in_time_unit
 from ..results import RecordResult
 from ..validate import event_simulation, validation_simulation
 from . import plots
@@ -68,7 +69,10 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
            "box": None}
     if rec is None:
         return ctx, files
-    ctx["meta"] = {"samples": rec.n_samples, "sample_time": fmt(rec.sample_time),
+    tu = rec.units.get("time")
+    ctx["meta"] = {"samples": rec.n_samples,
+                   "sample_time": (f"{fmt(in_time_unit(rec.sample_time, tu))} {tu or 's'}"
+                                   if rec.sample_time else "irregular"),
                    "input": rec.input_name, "output": rec.output_name,
                    "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
     ctx["box"] = recommended_box(res)

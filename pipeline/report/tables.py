@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 from ..fit import Fit
 from ..grade import verdict_of
 from ..methods import REGISTRY
-from ..models import PARAMETERS, STRUCTURES
-from ..record import Record
+from ..models import PARAMETERS, STRUCTURES, ProcessModel
+from ..record import Record, in_time_unit
 from ..results import RecordResult
 
 
@@ -54,12 +54,29 @@ def _ordered(params: dict) -> list[str]:
     return sorted(params, key=lambda k: order.index(k) if k in order else len(order))
 
 
+def shown(name: str, value, units: dict | None, structure: str | None):
+    """A parameter value (seconds-based, as the models hold it) in the user's time unit
+    ``units["time"]``: times scale with it, rates (frequencies, an integrator's gain)
+    against it."""
+    if value is None or name not in PARAMETERS or not units or not units.get("time"):
+        return value
+    integrating = bool(structure and structure in STRUCTURES and STRUCTURES[structure].integrating)
+    power = PARAMETERS[name].time_power(integrating)
+    one = in_time_unit(1.0, units["time"])  # one second in the user's unit
+    return float(value) * one**power if power else value
+
+
+def shown_params(params: dict, units: dict | None, structure: str | None) -> dict:
+    return {k: shown(k, v, units, structure) for k, v in params.items()}
+
+
 def params_text(params: dict | None, units: dict | None = None,
                 structure: str | None = None) -> str:
     """``K=20.7 degC/V, T=55.4 s, delay=3.64 s`` in the parameter table's order and formats
-    (units when ``units`` are given; a zero dead time is left out)."""
+    (in the user's units when ``units`` are given; a zero dead time is left out)."""
     if not params:
         return "-"
+    params = shown_params(params, units, structure)
     out = []
     for k in _ordered(params):
         if k == "delay" and float(params[k]) == 0.0:
@@ -85,14 +102,23 @@ def unit_of(name: str, record: Record | None, structure: str | None) -> str:
     return _unit(name, record.units if record else {}, structure)
 
 
-def with_ci(fit: Fit, name: str) -> str:
-    """``value ± half-width`` when the fit has a 95 % interval for ``name``."""
-    v = float(fit.model.params[name])
+def with_ci(fit: Fit, name: str, record: Record | None = None) -> str:
+    """``value ± half-width`` (in the record's units) when the fit has a 95 % interval."""
+    units, st = (record.units if record else None), fit.model.structure
+    v = shown(name, float(fit.model.params[name]), units, st)
     ci = fit.ci95.get(name)
     if not ci or ci[0] is None or ci[1] is None:
         return _value(name, v)
-    half = (float(ci[1]) - float(ci[0])) / 2.0
-    return f"{_value(name, v)} ± {fmt(half, 2)}"
+    half = (shown(name, float(ci[1]), units, st) - shown(name, float(ci[0]), units, st)) / 2
+    return f"{_value(name, v)} ± {fmt(abs(half), 2)}"
+
+
+def display_model(fit: Fit, record: Record | None):
+    """The fit's model with its parameters in the user's time unit (so its transfer
+    function reads in that unit's s)."""
+    units = record.units if record else None
+    return ProcessModel(fit.model.structure,
+                        shown_params(fit.model.params, units, fit.model.structure))
 
 
 def dynamics_text(structure: str | None, params: dict, record: Record | None = None) -> str:
@@ -101,6 +127,7 @@ def dynamics_text(structure: str | None, params: dict, record: Record | None = N
     if not structure or structure not in STRUCTURES:
         return "-"
     names = STRUCTURES[structure].dynamics
+    params = shown_params(params, record.units if record is not None else None, structure)
     return ", ".join(f"{k}={_value(k, params[k])}" + (
         f" {u}" if record is not None and (u := unit_of(k, record, structure)) else "")
         for k in names if k in params) or "-"
@@ -140,10 +167,10 @@ def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
         t.rows.append([
             Cell(r.name, href=f"#{anchor}"), Cell(verdict, "verdict"),
             Cell(str(len(r.events)), "num"), Cell(fit.method, "code"),
-            Cell(f"{with_ci(fit, 'K')} {unit_of('K', r.record, fit.model.structure)}".strip(),
-                 "num"),
+            Cell(f"{with_ci(fit, 'K', r.record)} "
+                 f"{unit_of('K', r.record, fit.model.structure)}".strip(), "num"),
             Cell(dynamics_text(fit.model.structure, p, r.record)),
-            Cell(fmt(fit.model.delay), "num"),
+            Cell(fmt(shown("delay", fit.model.delay, r.record.units, None)), "num"),
             Cell(fmt(fit.metrics.get("mse_validation")), "num"),
             Cell(fmt(fit.metrics.get("fit_percent"), 3), "num"),
         ])
@@ -151,12 +178,14 @@ def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
 
 
 def events_table(res: RecordResult) -> Table:
-    t = Table(["#", "kind", "role", "t0", "t_end", "u0", "u_ss", "area", "y0", "y_ss",
-               "response", "settled"])
+    tu = res.record.units.get("time") if res.record else None
+    t = Table(["#", "kind", "role", f"t0 [{tu or 's'}]", f"t_end [{tu or 's'}]", "u0", "u_ss",
+               "area", "y0", "y_ss", "response", "settled"])
     for e in res.events:
         t.rows.append([
             Cell(str(e.index), "num"), Cell(e.kind), Cell(res.roles.get(e.index, "-")),
-            Cell(fmt(e.t0), "num"), Cell(fmt(e.t_end), "num"), Cell(fmt(e.u0), "num"),
+            Cell(fmt(in_time_unit(e.t0, tu)), "num"), Cell(fmt(in_time_unit(e.t_end, tu)), "num"),
+            Cell(fmt(e.u0), "num"),
             Cell(fmt(e.u_ss) if e.kind == "step" else "-", "num"),
             Cell(fmt(e.area) if e.kind == "impulse" else "-", "num"),
             Cell(fmt(e.y0), "num"), Cell(fmt(e.y_ss), "num"),
@@ -183,9 +212,9 @@ def ranking_table(res: RecordResult, event: int) -> Table:
         t.rows.append([
             Cell(str(rank), "num"), Cell(f.method, "code", note=info.title if info else ""),
             Cell(f.verdict or "-", "verdict", note=", ".join(x.code for x in f.flags)),
-            Cell(", ".join(f"{k}={with_ci(f, k)}" for k in _ordered(f.model.params)
+            Cell(", ".join(f"{k}={with_ci(f, k, res.record)}" for k in _ordered(f.model.params)
                            if not (k == "delay" and f.model.delay == 0.0))),
-            Cell(f.model.text(), "code"), Cell(fmt(m.get("ise")), "num"),
+            Cell(display_model(f, res.record).text(), "code"), Cell(fmt(m.get("ise")), "num"),
             Cell(fmt(m.get("mse_validation")), "num"),
             Cell(fmt(m.get("fit_percent"), 3), "num"),
             Cell(info.citation if info else "", note="")])
@@ -204,7 +233,11 @@ def recommended_box(res: RecordResult) -> dict | None:
         ci = fit.ci95.get(k)
         interval = (f"[{fmt(ci[0])}, {fmt(ci[1])}]" if ci and None not in ci else "-")
         label = PARAMETERS[k].label if k in PARAMETERS else k
-        rows.rows.append([Cell(label), Cell(with_ci(fit, k), "num"),
+        units = rec.units if rec else None
+        if ci and None not in ci:
+            lo, hi = sorted((shown(k, ci[0], units, st), shown(k, ci[1], units, st)))
+            interval = f"[{fmt(lo)}, {fmt(hi)}]"
+        rows.rows.append([Cell(label), Cell(with_ci(fit, k, rec), "num"),
                           Cell(unit_of(k, rec, st)), Cell(interval, "num")])
     info = REGISTRY.get(fit.method)
     flags = list(fit.flags) + [f for f in res.flags if f not in fit.flags]
@@ -216,7 +249,8 @@ def recommended_box(res: RecordResult) -> dict | None:
         "recommended": res.recommendation is not None and res.recommended is fit,
         "method": fit.method, "title": info.title if info else fit.method,
         "citation": info.citation if info else "", "event": fit.event,
-        "structure": STRUCTURES[st].formula, "tf": fit.model.text(), "units": units,
+        "structure": STRUCTURES[st].formula, "tf": display_model(fit, rec).text(),
+        "units": units,
         "params": rows, "fit": fmt(fit.metrics.get("fit_percent"), 3),
         "mse": fmt(fit.metrics.get("mse_validation")),
         "verdict": record_verdict(res),
