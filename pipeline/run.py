@@ -224,7 +224,12 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
 
         write_junit(junit, doc, comparison)
     n_ok = len(records) - len(run.failures)
-    messages.insert(0, f"{n_ok} of {len(records)} record(s) identified; reports in {target}/")
+    from .grade import record_verdict
+
+    verdicts = [record_verdict(r) for r in records if r.ok]
+    counts = ", ".join(f"{verdicts.count(v)} {v}" for v in ("ok", "warning", "unreliable"))
+    messages.insert(0, f"{n_ok} of {len(records)} record(s) identified ({counts}); reports "
+                       f"in {target}/")
     code = (ExitCode.REGRESSION if comparison is not None and not comparison.ok
             else ExitCode.SOME_FAILED if run.failures else ExitCode.OK)
     return Outcome(code, target, run, messages)

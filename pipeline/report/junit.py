@@ -6,6 +6,8 @@ Testcases (``classname`` = the record name):
   ``<failure>`` per regression of that fit (type = the finding's kind, the message names
   record, method, parameter, baseline, current and change); ``not_applicable`` and
   ``failed`` fits that are not regressions are ``<skipped>`` with their reason;
+* ``name = "recommended model (...)"``: passes when the record's recommended model has
+  the verdict ok, else ``<skipped>`` with its verdict and flags (never green);
 * ``name = "record"`` for a record that failed to load or analyse (``<error>``, its one-line
   reason; a ``<failure>`` too when it was ok in the baseline) and for record-level
   regressions (a record missing from the run);
@@ -46,6 +48,8 @@ def junit_xml(current: ResultsDoc, comparison: Comparison | None = None) -> str:
             key = (name, fit.event, fit.method)
             seen.add(key)
             suite.append(_fit_case(name, fit, comparison.for_fit(*key)))
+        if rec.recommended is not None:
+            suite.append(_recommended_case(rec))
     for key in _unseen_keys(comparison, seen):
         suite.append(_orphan_case(key, comparison.for_fit(*key)))
     _count(suite)
@@ -97,6 +101,19 @@ def _fit_case(record: str, fit: FitDoc, findings: list[Finding]) -> ET.Element:
         reason = fit.reason or "no reason given"
         text = reason if status == "not_applicable" else f"method failed: {reason}"
         ET.SubElement(case, "skipped", {"message": text, "type": status})
+    return case
+
+
+def _recommended_case(rec: RecordDoc) -> ET.Element:
+    """The record's recommended model: passes when its verdict is ok, else ``<skipped>``
+    with the verdict and its flags (never green for a model to use with care)."""
+    r = rec.recommended
+    case = _case(rec.name, f"recommended model ({r.method}, event {r.event})")
+    if r.verdict not in (None, "ok"):
+        codes = ", ".join(f.code for f in r.flags) or "no flags"
+        ET.SubElement(case, "skipped", {"message": f"verdict {r.verdict}: {codes}",
+                                        "type": r.verdict}).text = "\n".join(
+            f"{f.code}: {f.message}" for f in r.flags)
     return case
 
 

@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..fit import Fit
-from ..grade import verdict_of
+from ..grade import answer, record_verdict
 from ..methods import REGISTRY
 from ..models import PARAMETERS, STRUCTURES, ProcessModel
 from ..record import Record, in_time_unit
@@ -134,22 +134,6 @@ def dynamics_text(structure: str | None, params: dict, record: Record | None = N
 
 
 # -- tables ------------------------------------------------------------------------------
-
-def answer(res: RecordResult) -> Fit | None:
-    """The fit a record's report leads with: the recommended one, else the ranked best."""
-    return res.recommended or res.best
-
-
-def record_verdict(res: RecordResult) -> str:
-    """"failed" for a record that could not be analysed, else the answer's verdict (with
-    the record-level flags), "unreliable" when there is no model at all."""
-    if not res.ok:
-        return "failed"
-    fit = answer(res)
-    if fit is None:
-        return "unreliable"
-    return fit.verdict or verdict_of(fit.flags + res.flags)
-
 
 def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
     """One row per record: its verdict, events and the model to use."""
