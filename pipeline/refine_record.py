@@ -1,0 +1,129 @@
+"""Refinement of one event (the ``lsq_<structure>`` methods run on an event alone), and
+the decision how its initial state is treated.
+
+* :func:`refine_event` - one event's window (the baseline before ``t0`` and the window
+  after it), started from the graphical methods' models;
+* :func:`initial_state` - "rest" when the baseline before the step is settled, else
+  "estimated": the output is still moving there (the previous event did not settle, or
+  the baseline drifts by more than its noise).
+
+Estimating the state always would make the gain unidentifiable for a step at the first
+samples of a window: after the dead time a first-order lag's step response and its free
+response are the same exponential, and only the few samples before the step tell them
+apart. So it is estimated only where the data say the plant was moving (MATLAB procest's
+``InitialCondition`` choice, made from the data), and where the record holds an earlier
+event that started at rest, :mod:`pipeline.joint` carries the state from there instead
+(the measured input since then drives it, and the same gain explains the tail).
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Sequence
+
+import numpy as np
+
+from .events import EventData
+from .models import ProcessModel
+from .refine import Refinement, RefineOptions, candidate_starts, refine
+from .validate import fit_start
+
+#: A baseline drift larger than this share of the step's output change counts as moving
+#: (when it is also beyond 3 standard errors of the noise).
+DRIFT_FRACTION = 0.01
+
+
+def baseline_moving(t: np.ndarray, y: np.ndarray, noise: float, dy: float) -> bool:
+    """Whether the output drifts over the baseline ``t, y``: the straight-line change over
+    it exceeds three standard errors (white noise ``noise``) and ``DRIFT_FRACTION`` of
+    ``dy``."""
+    if y.size < 4:
+        return False
+    slope = np.polyfit(t - t[0], y, 1)[0]
+    drift = abs(float(slope) * float(t[-1] - t[0]))
+    return drift > max(3 * noise * math.sqrt(12.0 / y.size), DRIFT_FRACTION * abs(dy))
+
+
+def initial_state(ev: EventData, previous_settled: bool | None = None) -> str:
+    """"rest" or "estimated" for an event (see the module docstring)."""
+    i0 = ev.i0
+    if previous_settled is False:
+        return "estimated"
+    if i0 < 4:
+        return "rest"  # nothing before the step to judge by: assumed (e.g. a record start)
+    moving = baseline_moving(ev.t[:i0], ev.y[:i0], ev.noise, ev.dy)
+    return "estimated" if moving else "rest"
+
+
+def starts_for(structure: str, models: Sequence[ProcessModel], horizon: float
+               ) -> list[dict[str, float]]:
+    """Candidate starts from the graphical models of the event (:func:`candidate_starts`)."""
+    return candidate_starts(structure, list(models), horizon)
+
+
+#: The last event the graphical starts were computed for: ``identify(ev, "lsq_...")`` for
+#: each structure on the same event object reuses them (an event is immutable).
+_LAST_STARTS: list[tuple[weakref.ref, list[ProcessModel]]] = []
+
+
+def graphical_models(ev: EventData) -> list[ProcessModel]:
+    """The models of every graphical method that applies to the event (the starts of a
+    refinement called on an event alone)."""
+    from .methods import REGISTRY, identify
+
+    if _LAST_STARTS and _LAST_STARTS[0][0]() is ev:
+        return list(_LAST_STARTS[0][1])
+    out = []
+    for info in REGISTRY.values():
+        if info.kind == "graphical" and info.event == ev.kind:
+            fit = identify(ev, info.id)
+            if fit.ok:
+                out.append(fit.model)
+    _LAST_STARTS[:] = [(weakref.ref(ev), out)]
+    return list(out)
+
+
+def refine_event(ev: EventData, structure: str, *, models: Sequence[ProcessModel] | None = None,
+                 state: str | None = None, options: RefineOptions | None = None
+                 ) -> Refinement:
+    """Refine ``structure`` on one event: its baseline (:func:`pipeline.validate.fit_start`)
+    and window, the model at rest at the event's input level ``u0`` or with its initial
+    state estimated (``state``; None: decided by :func:`initial_state`), started from
+    ``models`` (None: the graphical methods run on the event)."""
+    models = graphical_models(ev) if models is None else list(models)
+    sl = slice(fit_start(0, ev.i0, ev.t.size), ev.t.size)
+    span = float(ev.t[-1] - ev.t[sl.start])
+    return refine(ev.t[sl], ev.u[sl], ev.y[sl], structure, u_ref=ev.u0,
+                  starts=starts_for(structure, models, span),
+                  initial_state=state or initial_state(ev), options=options)
+
+
+def result_parts(ref: Refinement, **extra) -> tuple[ProcessModel, dict, dict]:
+    """``(model, diagnostics, ci95)`` of a refinement, as a fit carries them: the fitted
+    operating point, how the initial state was treated, the fit's own error and effective
+    sample size, and the standard errors."""
+    diag = {
+        "initial_state": ref.initial_state, "y0": ref.y0, "u0": ref.u0,
+        "mse_fit": ref.mse, "n_fit": int(ref.residuals.size), "n_eff": ref.n_eff,
+        "variance_factor": ref.variance_factor, "n_params": ref.n_params,
+        "std": dict(ref.std), "nfev": ref.nfev, "runs": ref.n_runs,
+        "interval_method": ref.diagnostics.get(
+            "interval_method", "Jacobian, scaled by the residuals' effective sample size"),
+        **extra,
+    }
+    return ref.model, diag, dict(ref.ci95)
+
+
+def event_states(record, events) -> list[str]:
+    """:func:`initial_state` of every event of a record."""
+    from .events import EventData
+
+    return [initial_state(EventData.from_event(record, ev), events[i - 1].settled if i else None)
+            for i, ev in enumerate(events)]
+
+
+def carry_source(states: Sequence[str], i: int) -> int | None:
+    """The latest event ``j <= i`` that starts at rest (the state of event ``i`` can be
+    carried from there), or None."""
+    return next((j for j in range(i, -1, -1) if states[j] == "rest"), None)
