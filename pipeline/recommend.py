@@ -10,13 +10,17 @@ anything with its ``record``, ``events``, ``fits``, ``validation_events`` and
    leave-one-event-out for a model of all events, the other events for a model of one);
    else (one event, nothing held out) Akaike's information criterion on the
    identification fit (``aic``).
-2. The lowest wins, unless a simpler structure (fewer parameters in the structure table)
-   is not worse by more than the uncertainty; among equally simple models within the
-   uncertainty a least-squares refinement (fitted to all the identification data, with
-   intervals) comes before a graphical one, then the lower error. For a held-out MSE the
-   uncertainty is a paired test on the squared errors of the same samples: a candidate is
-   as good as the best when the mean of ``e_c^2 - e_best^2`` is within ``z`` standard
-   errors of zero, the standard error the one fresh noise would give
+2. Each structure is represented by its least-squares refinement (fitted to all the
+   identification data, with intervals), unless a graphical model of that structure is
+   better by more than the uncertainty (Bonferroni-corrected for their number,
+   :data:`LEVEL`: the refinement missed). Across structures the lowest wins, unless a
+   simpler structure (fewer parameters in the structure table) is not worse by more than
+   :data:`Z_STRUCTURE` standard errors, or predicts the same within a quarter of the noise
+   (:func:`equivalent`: a more complex structure that nests it wins such ties only by
+   fitting noise). For a held-out MSE the uncertainty is a paired
+   test on the squared errors of the same samples: a candidate is as good as the best
+   when the mean of ``e_c^2 - e_best^2`` is within ``z`` standard errors of zero, the
+   standard error the one fresh noise would give
    (:func:`paired_difference`; cf. the Diebold-Mariano test, F. X. Diebold, R. S.
    Mariano, "Comparing predictive accuracy", J. Business & Economic Statistics
    13(3):253-263, 1995). For the AIC, a difference of at most 2 (K. P. Burnham, D. R.
@@ -33,6 +37,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import stats
 
 from .fit import Fit
 from .joint import fold_models
@@ -40,8 +45,15 @@ from .results import Recommendation
 from .uncertainty import variance_factor
 from .validate import heldout_residuals
 
-#: Standard errors within which a simpler model counts as good as the best.
-Z_PAIRED = 2.0
+#: Standard errors within which a simpler structure counts as good as the best (95 %).
+Z_STRUCTURE = 1.96
+#: Models whose held-out predictions differ by less than this share of the noise standard
+#: deviation (RMS) are equivalent: the simpler structure is kept.
+EQUIVALENT = 0.25
+#: Family-wise level at which a graphical model must beat the refinement of its own
+#: structure (Bonferroni over the graphical models of the structure): the best of several
+#: readings on the same validation noise wins by chance often.
+LEVEL = 0.05
 #: AIC difference within which a simpler model counts as good as the best.
 AIC_MARGIN = 2.0
 
@@ -72,7 +84,9 @@ def complexity(fit: Fit) -> int:
 
 
 @dataclass(frozen=True)
-class _Candidate:
+class Candidate:
+    """A fit, its criterion value and its held-out errors at sample indices ``idx``."""
+
     fit: Fit
     error: float
     idx: np.ndarray
@@ -101,7 +115,7 @@ def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
     return heldout_residuals(fit.model, rec, events, others)
 
 
-def recommend(result, *, z: float = Z_PAIRED, aic_margin: float = AIC_MARGIN
+def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
               ) -> Recommendation | None:
     """The recommended model of ``result`` (see the module docstring); None without an ok
     fit that has a finite criterion."""
@@ -115,20 +129,63 @@ def recommend(result, *, z: float = Z_PAIRED, aic_margin: float = AIC_MARGIN
     cands = []
     for f in fits:
         idx, e = held_out(f, result)
-        cands.append(_Candidate(f, float(f.metrics[crit]), idx, e))
-    best = min(cands, key=lambda c: (c.error, complexity(c.fit)))
-    noise = measurement_noise(result, best.idx)
+        cands.append(Candidate(f, float(f.metrics[crit]), idx, e))
+    noise = measurement_noise(result, min(cands, key=lambda c: c.error).idx)
+    reps = [_representative(group, noise, level) for group in _by_structure(cands)]
+    best = min(reps, key=lambda c: (c.error, complexity(c.fit)))
     tied = []
-    for c in cands:
+    for c in reps:
         diff, se = paired_difference(c, best, noise)
-        if c is best or diff <= z * se:
+        if c is best or diff <= Z_STRUCTURE * se or equivalent(c, best, noise):
             tied.append((c, diff, se))
-    chosen, diff, se = min(tied, key=lambda t: (complexity(t[0].fit), not refined(t[0].fit),
-                                                 t[0].error))
+    chosen, diff, se = min(tied, key=lambda t: (complexity(t[0].fit), t[0].error))
     name = {"mse_validation": "validation MSE",
             "mse_cross_validation": "held-out MSE"}[crit]
-    return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error, len(cands),
-                           f"difference {diff:.3g} +- {se:.2g}, within {z:g} standard errors")
+    lowest = min(cands, key=lambda c: c.error)
+    if chosen is not best or lowest is chosen:
+        return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
+                               len(cands), f"difference {diff:.3g} +- {se:.2g}, within "
+                               f"{Z_STRUCTURE:g} standard errors")
+    diff, se = paired_difference(chosen, lowest, noise)
+    reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method} read "
+              f"{lowest.error:.4g} off the response of the same structure, within the "
+              f"uncertainty (difference {diff:.3g} +- {se:.2g}), and the refinement is "
+              "fitted to all the identification data, with intervals")
+    return Recommendation(chosen.fit.method, chosen.fit.event, reason,
+                          events=tuple(chosen.fit.events))
+
+
+def equivalent(c: Candidate, best: Candidate, noise: float) -> bool:
+    """Whether two models predict the held-out samples within :data:`EQUIVALENT` of the
+    noise standard deviation (RMS): then they are the same model for any use, and a win
+    of the more complex one is its extra parameters fitting the identification noise."""
+    _, ic, ib = np.intersect1d(c.idx, best.idx, return_indices=True)
+    if ic.size == 0:
+        return False
+    return float(np.sqrt(np.mean((c.e[ic] - best.e[ib]) ** 2))) <= EQUIVALENT * math.sqrt(noise)
+
+
+def _by_structure(cands: list[Candidate]) -> list[list[Candidate]]:
+    groups: dict[str, list[Candidate]] = {}
+    for c in cands:
+        groups.setdefault(c.fit.model.structure, []).append(c)
+    return list(groups.values())
+
+
+def _representative(group: list[Candidate], noise: float, level: float) -> Candidate:
+    """The model that stands for a structure: its best refinement, unless a graphical
+    model of the structure is better by more than the uncertainty (Bonferroni over them:
+    the best of several readings on the same validation noise wins by chance often)."""
+    lsq = [c for c in group if refined(c.fit)]
+    graph = sorted((c for c in group if not refined(c.fit)), key=lambda c: c.error)
+    if not lsq:
+        return graph[0]
+    rep = min(lsq, key=lambda c: c.error)
+    if graph and graph[0].error < rep.error:
+        diff, se = paired_difference(rep, graph[0], noise)
+        if diff > float(stats.norm.ppf(1 - level / (2 * len(graph)))) * se:
+            return graph[0]
+    return rep
 
 
 def measurement_noise(result, idx: np.ndarray) -> float:
@@ -139,7 +196,7 @@ def measurement_noise(result, idx: np.ndarray) -> float:
     return float(np.mean([e.noise**2 for e in evs])) if evs else 0.0
 
 
-def paired_difference(c: _Candidate, best: _Candidate, noise: float) -> tuple[float, float]:
+def paired_difference(c: Candidate, best: Candidate, noise: float) -> tuple[float, float]:
     """Mean of ``d = e_c^2 - e_best^2`` over the samples both were scored on, and its
     standard error under fresh noise.
 
@@ -173,17 +230,15 @@ def _by_aic(fits: list[Fit], margin: float) -> Recommendation:
 
 def _recommendation(chosen: Fit, best: Fit, name: str, err: float, best_err: float, n: int,
                     margin: str, note: str = "") -> Recommendation:
-    where = f"events {', '.join(map(str, chosen.events))}" if chosen.events else \
-        f"event {chosen.event}"
+    where = _where(chosen)
     if chosen is best:
         return Recommendation(chosen.method, chosen.event, f"{note}lowest {name} ({err:.4g}) "
                               f"of {n} models ({where})", events=tuple(chosen.events))
-    if complexity(chosen) < complexity(best):
-        why = (f"a simpler structure ({chosen.model.structure}, {complexity(chosen)} "
-               f"parameters against {complexity(best)})")
-    else:
-        why = ("fitted by least squares to all the identification data, with intervals, "
-               f"where the lowest is a {best.model.structure} model read off the response")
     reason = (f"{note}{name} {err:.4g}, as good as the lowest ({best.method}: {best_err:.4g}; "
-              f"{margin}), and {why} ({where})")
+              f"{margin}), and a simpler structure ({chosen.model.structure}, "
+              f"{complexity(chosen)} parameters against {complexity(best)}) ({where})")
     return Recommendation(chosen.method, chosen.event, reason, events=tuple(chosen.events))
+
+
+def _where(fit: Fit) -> str:
+    return f"events {', '.join(map(str, fit.events))}" if fit.events else f"event {fit.event}"

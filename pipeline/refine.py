@@ -44,6 +44,9 @@ from .uncertainty import block_bootstrap_residuals, covariance, t_quantile, vari
 
 #: Iterations of the pilot runs from each start (the best one then runs to convergence).
 PILOT_NFEV = 3
+#: Starts count as distinct when a log-scale parameter differs by this (a factor 1.65) or a
+#: linear one by this share of the window.
+DISTINCT_LOG, DISTINCT_LINEAR = 0.5, 0.05
 #: Relative tolerances of the search (cost and step): far below a noise-limited precision.
 FTOL = 1e-5
 #: Degrees of freedom of the interval quantile at least: fewer effective samples mean the
@@ -236,33 +239,38 @@ def _space(structure: str, names: Sequence[str], dt: float, span: float) -> _Spa
 def candidate_starts(structure: str, models: Sequence[ProcessModel], horizon: float
                      ) -> list[dict[str, float]]:
     """Starts for a structure: every given model of that structure as it is, and for each
-    distinct (time scale, dead time) among all given models (or ``horizon / 5`` when
-    none) the templates of the structure scaled to it (see :func:`templates`)."""
+    distinct (time scale, dead time) among all given models, and the time scales
+    ``horizon / 20`` and ``horizon / 5`` of the window itself (a structure no given model
+    resembles), the templates of the structure scaled to it (see :func:`templates`), with
+    that dead time and with half the time scale more."""
     out = [dict(m.params) for m in models if m.structure == structure]
     scales = {(round(m.time_scale, 6), round(m.delay, 6)) for m in models
               if math.isfinite(m.time_scale) and m.time_scale > 0}
-    if not scales:
-        scales = {(horizon / 5, 0.0)}
+    scales |= {(horizon / 20, 0.0), (horizon / 5, 0.0)}
     for tau, delay in sorted(scales):
-        out.extend(templates(structure, tau, delay))
+        for d in (delay, delay + tau / 2):  # a dead time the readings missed
+            out.extend(templates(structure, tau, d))
     return out
 
 
 def templates(structure: str, tau: float, delay: float) -> list[dict[str, float]]:
     """Parameter sets of ``structure`` with time scale ``tau`` and dead time ``delay``:
     each combination of the :data:`DIMENSIONLESS_STARTS`, time parameters equal or spread
-    (each a quarter of the one before), frequencies reciprocal to the time scale."""
+    (each a quarter, or four times, the one before; a time parameter that may be negative,
+    a zero's, also with the opposite sign), frequencies reciprocal to the time scale."""
     spec = STRUCTURES[structure]
     kinds = {n: PARAMETERS[n].kind if n in PARAMETERS else "dimensionless"
              for n in spec.dynamics}
     dimless = [n for n, k in kinds.items() if k == "dimensionless"]
     times = [n for n, k in kinds.items() if k == "time"]
+    signed = [n for n in times if spec.bounds.get(n, (-math.inf, 0.0))[0] < 0]
     choices = [DIMENSIONLESS_STARTS.get(n, (_mid(spec.bounds.get(n)),)) for n in dimless]
-    spreads = (1.0, 0.25) if len(times) > 1 else (1.0,)
+    spreads = (1.0, 0.25, 4.0) if len(times) > 1 else (1.0,)
     out = []
-    for values, spread in itertools.product(itertools.product(*choices), spreads):
+    for values, spread, sign in itertools.product(itertools.product(*choices), spreads,
+                                                  (1.0, -1.0) if signed else (1.0,)):
         p = {"K": 1.0, "delay": delay, **dict(zip(dimless, values, strict=True))}
-        p.update({n: spread**i for i, n in enumerate(times)})
+        p.update({n: spread**i * (sign if n in signed else 1.0) for i, n in enumerate(times)})
         p.update({n: 1.0 for n, k in kinds.items() if k == "frequency"})
         ts = float(spec.time_scale(p))
         f = tau / ts if math.isfinite(ts) and ts > 0 else 1.0
@@ -327,11 +335,26 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
             best, extra = _integer(prob, structure, space, fixed, best[0], ints, dt_eff, span,
                                    opt)
             nfev += extra
-    p = {**fixed, **best[0]}
+    p = {**fixed, **_snap(space, best[0])}
     ref = _finish(prob, space, p, y_fit, initial_state, u_ref, opt, nfev, runs)
     if opt.bootstrap > 0:
         ref = _bootstrap(prob, space, ref, fixed, u_ref, opt)
     return ref
+
+
+def _snap(space: _Space, p: Mapping[str, float]) -> dict[str, float]:
+    """Parameters within 1e-6 of the search range from a bound put on it (a dead time of
+    1e-12 s is a dead time of 0 the search approached from above)."""
+    out = dict(p)
+    if not space.names:
+        return out
+    z = space.to_z(p)
+    tol = 1e-6 * (space.hi - space.lo)
+    for i, n in enumerate(space.names):
+        for b in (space.lo[i], space.hi[i]):
+            if abs(z[i] - b) <= tol[i]:
+                out[n] = float(math.exp(b) if space.log[i] else b * space.scale[i])
+    return out
 
 
 def _residual(prob: _Problem, p: Mapping[str, float]) -> np.ndarray:
@@ -363,8 +386,9 @@ def _multistart(prob, space: _Space, fixed, starts, opt: RefineOptions):
         cands = [(0.5 * float(np.sum(fun(z) ** 2)), (), z)]
     cands.sort(key=lambda c: c[0])
     chosen: list[np.ndarray] = []
+    tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)
     for _, _, z in cands:
-        if all(np.max(np.abs(z - c)) > 0.1 for c in chosen):
+        if all(np.max(np.abs(z - c) / tol) > 1.0 for c in chosen):
             chosen.append(z)
         if len(chosen) == opt.n_starts:
             break

@@ -27,6 +27,7 @@ import numpy as np
 from .events import EventData
 from .models import ProcessModel
 from .refine import Refinement, RefineOptions, candidate_starts, refine
+from .uncertainty import variance_factor
 from .validate import fit_start
 
 #: A baseline drift larger than this share of the step's output change counts as moving
@@ -36,13 +37,19 @@ DRIFT_FRACTION = 0.01
 
 def baseline_moving(t: np.ndarray, y: np.ndarray, noise: float, dy: float) -> bool:
     """Whether the output drifts over the baseline ``t, y``: the straight-line change over
-    it exceeds three standard errors (white noise ``noise``) and ``DRIFT_FRACTION`` of
-    ``dy``."""
+    it exceeds three standard errors and ``DRIFT_FRACTION`` of ``dy``. The standard error
+    is the line's, from the scatter about it (at least ``noise``) and its colour (slow
+    noise wanders like a drift: a white-noise error bar would call it one)."""
     if y.size < 4:
         return False
-    slope = np.polyfit(t - t[0], y, 1)[0]
-    drift = abs(float(slope) * float(t[-1] - t[0]))
-    return drift > max(3 * noise * math.sqrt(12.0 / y.size), DRIFT_FRACTION * abs(dy))
+    tc = t - t[0]
+    slope, icpt = np.polyfit(tc, y, 1)
+    resid = y - (icpt + slope * tc)
+    scatter = max(float(np.std(resid, ddof=2)) if y.size > 2 else 0.0, noise)
+    se = scatter * math.sqrt(variance_factor(resid) / max(float(np.sum((tc - tc.mean())**2)),
+                                                          1e-300))
+    drift = abs(float(slope) * float(tc[-1]))
+    return drift > max(3 * se * float(tc[-1]), DRIFT_FRACTION * abs(dy))
 
 
 def initial_state(ev: EventData, previous_settled: bool | None = None) -> str:

@@ -16,13 +16,18 @@ Science 7(4):473-483, 1992: sums of adjacent lag pairs while they stay positive)
 needs no truncation lag; on a short window the residuals of a fitted model have lost some
 of their slow content and the sum comes out low (5.5 instead of 9 on 200 samples of AR(1)
 noise at 0.8), so the AR(1) factor of the lag-1 autocorrelation is a floor (exact for
-AR(1) noise, about 1 for white noise). The intervals use Student's t with ``n_eff - p``
+AR(1) noise, about 1 for white noise), its estimate corrected for its small-sample bias
+``-(1 + 4 rho_1) / n`` (F. H. C. Marriott, J. A. Pope, "Bias in the estimation of
+autocorrelations", Biometrika 41:390-402, 1954). The intervals use Student's t with ``n_eff - p``
 degrees of freedom (at least :data:`pipeline.refine.MIN_DOF`).
 
 :func:`block_bootstrap_residuals` resamples residuals in moving blocks (H. R. Kuensch, "The
 jackknife and the bootstrap for general stationary observations", Annals of Statistics
-17(3):1217-1241, 1989), the block length the correlation length times 2 (at least
-``n^(1/3)``), for percentile intervals from refits.
+17(3):1217-1241, 1989), the block length four times the correlation length (at least
+``n^(1/3)``), for percentile intervals from refits. It is an option, not the default: on
+windows of a few hundred samples of AR(1) noise at 0.8 its intervals covered the truth in
+about 80-87 % of 30 seeds (the Jacobian intervals above: 87-97 %), the known small-sample
+shortfall of block resampling under strong correlation.
 """
 
 from __future__ import annotations
@@ -61,7 +66,8 @@ def variance_factor(e: np.ndarray, max_lag: int | None = None) -> float:
     if keep.size > 1:  # initial monotone sequence: each pair no larger than the one before
         keep = np.minimum.accumulate(keep)
     f = -1.0 + 2.0 * float(np.sum(keep))
-    r1 = min(max(float(rho[1]), 0.0), 0.99)
+    r1 = float(rho[1])
+    r1 = min(max(r1 + (1 + 4 * r1) / n, 0.0), 0.99)  # small-sample bias of rho_1
     return max(f, (1 + r1) / (1 - r1), 1.0)
 
 
@@ -72,10 +78,16 @@ def t_quantile(dof: float, level: float = 0.95) -> float:
 
 def covariance(jac: np.ndarray, resid: np.ndarray, n_params: int, factor: float
                ) -> np.ndarray:
-    """``s^2 f (J^T J)^+`` with ``s^2 = |e|^2 / (n - n_params)`` (pseudo-inverse: a
-    parameter the data do not determine gets a huge variance, not an exception)."""
+    """``s^2 f (J^T J)^+`` with ``s^2 = |e|^2 / (n - f n_params)`` (pseudo-inverse: a
+    parameter the data do not determine gets a huge variance, not an exception).
+
+    The fit absorbs part of coloured noise: ``E|e|^2 = sigma^2 (n - tr(P R))`` with ``P``
+    the projection on the Jacobian's columns and ``R`` the noise correlation, about
+    ``n - f n_params`` for regressors slower than the noise (``n - n_params`` when white),
+    so the residual variance is corrected by those degrees of freedom (at least n / 2:
+    beyond that the residuals are a misfit, not noise)."""
     n = resid.size
-    s2 = float(resid @ resid) / max(n - n_params, 1)
+    s2 = float(resid @ resid) / max(n - factor * n_params, n / 2, 1)
     jtj = jac.T @ jac
     scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
     inv = np.linalg.pinv(jtj / np.outer(scale, scale), rcond=1e-12) / np.outer(scale, scale)
@@ -94,7 +106,7 @@ def block_bootstrap_residuals(e: np.ndarray, n_boot: int, seed: int = 0) -> np.n
     """``n_boot`` moving-block resamples of ``e`` (rows), each as long as ``e``."""
     e = np.asarray(e, dtype=np.float64)
     n = e.size
-    block = int(min(n, max(2 * correlation_length(e), round(n ** (1 / 3)))))
+    block = int(min(n, max(4 * correlation_length(e), round(n ** (1 / 3)))))
     n_blocks = int(math.ceil(n / block))
     rng = np.random.default_rng(seed)
     starts = rng.integers(0, n - block + 1, size=(n_boot, n_blocks))

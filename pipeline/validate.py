@@ -62,12 +62,18 @@ def warmup_correction(model: ProcessModel, t: np.ndarray, error: np.ndarray,
                       t_after: np.ndarray) -> np.ndarray:
     """The correction to add to a simulation after a warm-up with simulation error
     ``error`` (measured - simulated) at times ``t``: its mean, and for an integrating
-    structure its linear drift extrapolated to ``t_after`` (zero without a warm-up)."""
+    structure its linear drift extrapolated to ``t_after`` where the drift is beyond three
+    standard errors (an input balance point off by that much; extrapolating a drift that
+    is only noise would add noise to every later sample). Zero without a warm-up."""
     if error.size == 0:
         return np.zeros(t_after.size)
-    if model.spec.integrating and error.size >= 3:
-        slope, icpt = np.polyfit(t - t[0], error, 1)
-        return icpt + slope * (t_after - t[0])
+    if model.spec.integrating and error.size >= 4:
+        tw = t - t[0]
+        (slope, icpt), res, *_ = np.polyfit(tw, error, 1, full=True)
+        s2 = float(res[0]) / (error.size - 2) if res.size else 0.0
+        se = np.sqrt(s2 / max(float(np.sum((tw - tw.mean()) ** 2)), 1e-300))
+        if abs(slope) > 3 * se:
+            return icpt + slope * (t_after - t[0])
     return np.full(t_after.size, float(np.mean(error)))
 
 
