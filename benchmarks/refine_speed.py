@@ -7,7 +7,7 @@ For each record: the median wall time (of --reps runs) of all graphical step met
 the identification event, of each ``lsq_<structure>`` on it (started from those graphical
 models, as :func:`pipeline.analyse.analyse` does), and of the whole ``analyse`` (methods,
 refinements, continuous validation, recommendation); the ratio refinements / graphical.
-Records: the three synthetic plants of the issue (1 % noise, two steps), a 4,000-sample
+Records: the three synthetic plants of the issue (1 % noise, two steps), a long
 event (the coarse-to-fine path) and, with ``--daisy`` (needs the dataset, e.g.
 ``PIPELINE_DATASETS_MIRROR``), DaISy 99-001 with ``events: [0]`` and ``events: all``.
 Prints Markdown tables and the machine.
@@ -38,7 +38,7 @@ PLANTS = {
         "two_lags", {"K": 1.5, "T1": 10.0, "T2": 3.0, "delay": 1.0}), 13.0, 0.5),
     "underdamped zeta 0.3, wn 1 (dt 0.1 s)": (ProcessModel(
         "second_order", {"K": 0.8, "zeta": 0.3, "wn": 1.0}), 3.3, 0.1),
-    "two lags, 4,000-sample event (dt 0.005 s)": (ProcessModel(
+    "two lags, long event: 4,160 samples after t0 (dt 0.005 s)": (ProcessModel(
         "two_lags", {"K": 1.5, "T1": 2.0, "T2": 0.6, "delay": 0.3}), 2.6, 0.005),
 }
 
@@ -92,7 +92,7 @@ def main() -> None:
           f"{' --daisy' if args.daisy else ''}` on CPython {platform.python_version()}, "
           f"{os.cpu_count()} CPU(s), {platform.machine()}, load average "
           f"{os.getloadavg()[0]:.1f}\n")
-    print("| record | samples | graphical methods (ms) | " + " | ".join(
+    print("| record | samples fitted | graphical methods (ms) | " + " | ".join(
         m for m in REGISTRY if REGISTRY[m].kind == "refinement") + " | refinements / "
           "graphical |")
     print("|---|---:|---:|" + "---:|" * (len(REGISTRY) - sum(

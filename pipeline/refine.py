@@ -16,8 +16,9 @@ projection (G. H. Golub, V. Pereyra, "The differentiation of pseudo-inverses and
 least squares problems whose variables separate", SIAM J. Numer. Anal. 10(2):413-432,
 1973). The nonlinear search (``scipy.optimize.least_squares``, trust-region reflective,
 bounded) only sees the time constants, damping, order and dead time, on log scale where
-a parameter is positive. It runs from the best few of many candidate starts (the
-graphical methods' models, and templates scaled to their time scales) and keeps the best.
+a parameter is positive (:mod:`pipeline.search`). It runs from the best few of many
+candidate starts (the graphical methods' models, and templates scaled to their time
+scales, :func:`pipeline.search.candidate_starts`) and keeps the best.
 An order ``n`` is searched as a real number, then fixed at the better of the two integers
 around it (a rational transfer function).
 
@@ -39,7 +40,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import basis
-from .models import PARAMETERS, STRUCTURES, ProcessModel
+from .models import STRUCTURES, ProcessModel
+from .search import Space, defaults, search_space, snap
 from .uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
 
 #: Iterations of the pilot runs from each start (the best one then runs to convergence).
@@ -55,9 +57,6 @@ FTOL = 1e-5
 MIN_DOF = 10
 #: Parameters fitted as integers (the order of an equal-lag chain, as Strejc's n).
 INTEGER_PARAMS = ("n",)
-#: Start values of dimensionless parameters (templates; the time parameters are scaled).
-DIMENSIONLESS_STARTS: dict[str, tuple[float, ...]] = {"zeta": (0.4, 1.0, 2.0),
-                                                      "n": (2.0, 4.0)}
 
 
 @dataclass(frozen=True)
@@ -185,108 +184,6 @@ def _project_out(nuis: np.ndarray) -> np.ndarray:
     return u[:, s > 1e-9 * s[0]] if s.size and s[0] > 0 else u[:, :0]
 
 
-# -- the search space --------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class _Space:
-    names: tuple[str, ...]
-    log: np.ndarray
-    scale: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-
-    def to_z(self, p: Mapping[str, float]) -> np.ndarray:
-        v = np.array([float(p[n]) for n in self.names])
-        z = np.where(self.log, np.log(np.maximum(np.abs(v), 1e-300)), v / self.scale)
-        return np.clip(z, self.lo + 1e-9 * (self.hi - self.lo), self.hi - 1e-9 *
-                       (self.hi - self.lo))
-
-    def from_z(self, z: np.ndarray) -> dict[str, float]:
-        v = np.where(self.log, np.exp(z), z * self.scale)
-        return {n: float(x) for n, x in zip(self.names, v, strict=True)}
-
-
-def _space(structure: str, names: Sequence[str], dt: float, span: float) -> _Space:
-    """Log scale for positive parameters; practical bounds from the sample time and the
-    span (a time constant far below the sample time or far above the record is not
-    determined by the data), inside the structure table's bounds."""
-    spec = STRUCTURES[structure]
-    log, scale, lo, hi = [], [], [], []
-    for name in names:
-        b_lo, b_hi = spec.bounds.get(name, (-math.inf, math.inf))
-        kind = PARAMETERS[name].kind if name in PARAMETERS else "dimensionless"
-        if name == "delay":
-            rng = (max(b_lo, 0.0), min(b_hi, 0.9 * span))
-        elif kind == "time":
-            rng = (max(b_lo, dt / 100) if b_lo >= 0 else max(b_lo, -100 * span),
-                   min(b_hi, 100 * span))
-        elif kind == "frequency":
-            rng = (max(b_lo, 1 / (100 * span)), min(b_hi, 100 / dt))
-        else:
-            rng = (max(b_lo, 1e-3) if b_lo >= 0 else max(b_lo, -1e3), min(b_hi, 1e3))
-        is_log = name != "delay" and b_lo >= 0
-        s = span if kind == "time" else 1.0
-        log.append(is_log)
-        scale.append(s)
-        lo.append(math.log(rng[0]) if is_log else rng[0] / s)
-        hi.append(math.log(rng[1]) if is_log else rng[1] / s)
-    return _Space(tuple(names), np.array(log, bool), np.array(scale), np.array(lo),
-                  np.array(hi))
-
-
-# -- candidate starts --------------------------------------------------------------------
-
-def candidate_starts(structure: str, models: Sequence[ProcessModel], horizon: float
-                     ) -> list[dict[str, float]]:
-    """Starts for a structure: every given model of that structure as it is, and for each
-    distinct (time scale, dead time) among all given models, and the time scales
-    ``horizon / 20`` and ``horizon / 5`` of the window itself (a structure no given model
-    resembles), the templates of the structure scaled to it (see :func:`templates`), with
-    that dead time and with half the time scale more."""
-    out = [dict(m.params) for m in models if m.structure == structure]
-    scales = {(round(m.time_scale, 6), round(m.delay, 6)) for m in models
-              if math.isfinite(m.time_scale) and m.time_scale > 0}
-    scales |= {(horizon / 20, 0.0), (horizon / 5, 0.0)}
-    for tau, delay in sorted(scales):
-        for d in (delay, delay + tau / 2):  # a dead time the readings missed
-            out.extend(templates(structure, tau, d))
-    return out
-
-
-def templates(structure: str, tau: float, delay: float) -> list[dict[str, float]]:
-    """Parameter sets of ``structure`` with time scale ``tau`` and dead time ``delay``:
-    each combination of the :data:`DIMENSIONLESS_STARTS`, time parameters equal or spread
-    (each a quarter, or four times, the one before; a time parameter that may be negative,
-    a zero's, also with the opposite sign), frequencies reciprocal to the time scale."""
-    spec = STRUCTURES[structure]
-    kinds = {n: PARAMETERS[n].kind if n in PARAMETERS else "dimensionless"
-             for n in spec.dynamics}
-    dimless = [n for n, k in kinds.items() if k == "dimensionless"]
-    times = [n for n, k in kinds.items() if k == "time"]
-    signed = [n for n in times if spec.bounds.get(n, (-math.inf, 0.0))[0] < 0]
-    choices = [DIMENSIONLESS_STARTS.get(n, (_mid(spec.bounds.get(n)),)) for n in dimless]
-    spreads = (1.0, 0.25, 4.0) if len(times) > 1 else (1.0,)
-    out = []
-    for values, spread, sign in itertools.product(itertools.product(*choices), spreads,
-                                                  (1.0, -1.0) if signed else (1.0,)):
-        p = {"K": 1.0, "delay": delay, **dict(zip(dimless, values, strict=True))}
-        p.update({n: spread**i * (sign if n in signed else 1.0) for i, n in enumerate(times)})
-        p.update({n: 1.0 for n, k in kinds.items() if k == "frequency"})
-        ts = float(spec.time_scale(p))
-        f = tau / ts if math.isfinite(ts) and ts > 0 else 1.0
-        p.update({n: v * (f if kinds.get(n) == "time" else 1 / f if kinds.get(n) ==
-                          "frequency" else 1.0) for n, v in p.items() if n in kinds})
-        out.append(p)
-    return out
-
-
-def _mid(b: tuple[float, float] | None) -> float:
-    lo, hi = b or (0.0, math.inf)
-    if math.isfinite(lo) and math.isfinite(hi):
-        return math.sqrt(lo * hi) if lo > 0 else (lo + hi) / 2
-    return max(lo, 1.0) if math.isfinite(lo) else 1.0
-
-
 # -- the fit -----------------------------------------------------------------------------
 
 def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[str, float]],
@@ -312,7 +209,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     fixed = dict(fixed or {})
     names = [n for n in spec.params if n != "K" and n not in fixed]
     dt_eff = dt or float(np.median(np.diff(t)))
-    space = _space(structure, names, dt_eff, span)
+    space = search_space(structure, names, dt_eff, span)
     ints = [n for n in names if n in INTEGER_PARAMS]
     m = math.ceil(t.size / opt.max_rows)
     if dt is not None and m > 2 and opt.coarse:
@@ -335,26 +232,11 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
             best, extra = _integer(prob, structure, space, fixed, best[0], ints, dt_eff, span,
                                    opt)
             nfev += extra
-    p = {**fixed, **_snap(space, best[0])}
+    p = {**fixed, **snap(space, best[0])}
     ref = _finish(prob, space, p, y_fit, initial_state, u_ref, opt, nfev, runs)
     if opt.bootstrap > 0:
         ref = _bootstrap(prob, space, ref, fixed, u_ref, opt)
     return ref
-
-
-def _snap(space: _Space, p: Mapping[str, float]) -> dict[str, float]:
-    """Parameters within 1e-6 of the search range from a bound put on it (a dead time of
-    1e-12 s is a dead time of 0 the search approached from above)."""
-    out = dict(p)
-    if not space.names:
-        return out
-    z = space.to_z(p)
-    tol = 1e-6 * (space.hi - space.lo)
-    for i, n in enumerate(space.names):
-        for b in (space.lo[i], space.hi[i]):
-            if abs(z[i] - b) <= tol[i]:
-                out[n] = float(math.exp(b) if space.log[i] else b * space.scale[i])
-    return out
 
 
 def _residual(prob: _Problem, p: Mapping[str, float]) -> np.ndarray:
@@ -364,7 +246,7 @@ def _residual(prob: _Problem, p: Mapping[str, float]) -> np.ndarray:
     return prob.y - a @ c
 
 
-def _multistart(prob, space: _Space, fixed, starts, opt: RefineOptions):
+def _multistart(prob, space: Space, fixed, starts, opt: RefineOptions):
     """``(params, cost, nfev, runs)`` of the best least-squares run from the
     ``opt.n_starts`` best distinct candidate starts."""
     if not space.names:
@@ -377,12 +259,12 @@ def _multistart(prob, space: _Space, fixed, starts, opt: RefineOptions):
     cands = []
     for s in starts:
         try:
-            z = space.to_z({**_defaults(space.names), **s})
+            z = space.to_z({**defaults(space.names), **s})
         except (KeyError, ValueError):
             continue
         cands.append((0.5 * float(np.sum(fun(z) ** 2)), tuple(np.round(z, 6)), z))
     if not cands:
-        z = space.to_z(_defaults(space.names))
+        z = space.to_z(defaults(space.names))
         cands = [(0.5 * float(np.sum(fun(z) ** 2)), (), z)]
     cands.sort(key=lambda c: c[0])
     chosen: list[np.ndarray] = []
@@ -409,18 +291,14 @@ def _multistart(prob, space: _Space, fixed, starts, opt: RefineOptions):
     return space.from_z(best.x), float(best.cost), nfev, len(chosen)
 
 
-def _defaults(names: Sequence[str]) -> dict[str, float]:
-    return {n: 0.0 if n == "delay" else DIMENSIONLESS_STARTS.get(n, (1.0,))[0] for n in names}
-
-
-def _integer(prob, structure, space: _Space, fixed, p_best, ints, dt, span, opt,
+def _integer(prob, structure, space: Space, fixed, p_best, ints, dt, span, opt,
              polish: bool = False):
     """Refit with each integer parameter fixed at the integers around its real optimum
     (``polish``: at the value it has, an integer already)."""
     options = [[round(p_best[n])] if polish or abs(p_best[n] - round(p_best[n])) < 0.2 else
                [math.floor(p_best[n]), math.ceil(p_best[n])] for n in ints]
     rest = [n for n in space.names if n not in ints]
-    sub = _space(structure, rest, dt, span)
+    sub = search_space(structure, rest, dt, span)
     best, nfev = None, 0
     for combo in itertools.product(*options):
         lo_hi = [STRUCTURES[structure].bounds.get(n, (-math.inf, math.inf)) for n in ints]
@@ -435,7 +313,7 @@ def _integer(prob, structure, space: _Space, fixed, p_best, ints, dt, span, opt,
     return best, nfev
 
 
-def _finish(prob: _Problem, space: _Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
+def _finish(prob: _Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p``."""
     x, nuis = prob.columns(p)
@@ -476,7 +354,7 @@ def _finish(prob: _Problem, space: _Space, p, y_fit, initial_state, u_ref, opt, 
                                              "rows": int(prob.y.size)})
 
 
-def _profiled_jacobian(prob: _Problem, space: _Space, p, K: float) -> np.ndarray:
+def _profiled_jacobian(prob: _Problem, space: Space, p, K: float) -> np.ndarray:
     """Jacobian of ``P(theta) (y - K x(theta))`` wrt (z, K), the nuisance columns (offset,
     state, input balance) projected out by ``P``; central differences in z."""
     def prof(z):
@@ -516,7 +394,7 @@ def _canonical(structure, params, ci, std):
     return params, ci, std
 
 
-def _bootstrap(prob: _Problem, space: _Space, ref: Refinement, fixed, u_ref, opt
+def _bootstrap(prob: _Problem, space: Space, ref: Refinement, fixed, u_ref, opt
                ) -> Refinement:
     """Percentile intervals from refits to ``fitted + block-resampled residuals``."""
     draws = []

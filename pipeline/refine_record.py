@@ -26,7 +26,8 @@ import numpy as np
 
 from .events import EventData
 from .models import ProcessModel
-from .refine import Refinement, RefineOptions, candidate_starts, refine
+from .refine import Refinement, RefineOptions, refine
+from .search import candidate_starts
 from .uncertainty import variance_factor
 from .validate import fit_start
 

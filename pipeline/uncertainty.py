@@ -48,6 +48,8 @@ def autocorrelation(e: np.ndarray, max_lag: int) -> np.ndarray:
     m = 1 << int(math.ceil(math.log2(2 * n)))
     f = np.fft.rfft(e, m)
     acov = np.fft.irfft(f * np.conj(f), m)[: max_lag + 1]
+    if not acov[0] > 1e-300:  # a constant series (to rounding): no correlation to read
+        return np.r_[1.0, np.zeros(max(max_lag, 0))]
     return acov / acov[0]
 
 

@@ -119,20 +119,30 @@ def test_a_new_structure_entry_gets_its_refinement(monkeypatch):
         REGISTRY.pop("lsq_test_integrator", None)
 
 
+def _fopdt(changes, t_end, seed):
+    return step_record(FOPDT, u0=2.0, changes=changes, t_end=t_end, dt=0.25, y0=7.0,
+                       noise=0.06, seed=seed)
+
+
+def _graphical_gains(res) -> list[float]:
+    return [f.model.K for f in res.fits if f.ok and REGISTRY[f.method].kind == "graphical"]
+
+
+def _k_t_errors(fit) -> list[float]:
+    return [fit.model.K / 2 - 1, fit.model.params["T"] / 10 - 1]
+
+
 def test_short_window_from_rest():
     """A step whose window is only 1.5 T long: the graphical gain (last tenth of the
     window) is 20 % or more low, the least-squares gain within 5 % (median of 20 seeds)."""
     k_lsq, k_graph = [], []
     for seed in range(20):
-        rec = step_record(FOPDT, u0=2.0, changes=[(20.0, 5.0)], t_end=35.0, dt=0.25, y0=7.0,
-                          noise=0.06, seed=seed)
-        res = analyse(rec)
+        res = analyse(_fopdt([(20.0, 5.0)], 35.0, seed))
         assert not res.events[0].settled
         fit = res.fit("lsq_first_order", 0)
         assert fit.diagnostics["initial_state"] == "rest"
         k_lsq.append(fit.model.K / 2.0 - 1)
-        k_graph.append(max(f.model.K for f in res.fits if f.ok and
-                           REGISTRY[f.method].kind == "graphical") / 2.0 - 1)
+        k_graph.append(max(_graphical_gains(res)) / 2.0 - 1)
     assert np.median(np.abs(k_lsq)) < 0.05
     assert max(k_graph) < -0.2
 
@@ -142,15 +152,12 @@ def test_step_on_a_decaying_tail_carries_the_state():
     event's rest (the measured input since drives it); K and T within 5 % (median)."""
     errs = []
     for seed in range(20):
-        rec = step_record(FOPDT, u0=2.0, changes=[(20.0, 5.0), (40.0, 3.0)], t_end=60.0,
-                          dt=0.25, y0=7.0, noise=0.06, seed=seed)
-        res = analyse(rec, AnalysisOptions(events=(1,)))
+        res = analyse(_fopdt([(20.0, 5.0), (40.0, 3.0)], 60.0, seed),
+                      AnalysisOptions(events=(1,)))
         fit = res.fit("lsq_first_order", 1)
         assert fit.diagnostics["initial_state"] == "carried from event 0"
-        errs.append([fit.model.K / 2 - 1, fit.model.params["T"] / 10 - 1])
-        graph_k = [f.model.K for f in res.fits if f.ok and REGISTRY[f.method].kind ==
-                   "graphical"]
-        assert max(graph_k) < 0.7 * 2.0  # read off an unsettled window on a tail
+        errs.append(_k_t_errors(fit))
+        assert max(_graphical_gains(res)) < 0.7 * 2.0  # read off an unsettled window on a tail
     assert np.all(np.median(np.abs(errs), axis=0) < 0.05)
 
 
@@ -159,15 +166,14 @@ def test_state_estimated_when_the_record_starts_moving():
     drifts, so the initial state is estimated; its free response shows before the step."""
     errs = []
     for seed in range(10):
-        full = step_record(FOPDT, u0=2.0, changes=[(5.0, 3.5), (45.0, 5.0)], t_end=145.0,
-                           dt=0.25, y0=7.0, noise=0.06, seed=seed)
+        full = _fopdt([(5.0, 3.5), (45.0, 5.0)], 145.0, seed)
         keep = full.t >= 20.0
         rec = make_record(full.t[keep] - 20.0, full.u[keep], full.y[keep], name="moving",
                           source="<moving>")
         res = analyse(rec, AnalysisOptions(methods=("lsq_first_order",)))
         (fit,) = res.fits
         assert fit.diagnostics["initial_state"] == "estimated"
-        errs.append([fit.model.K / 2 - 1, fit.model.params["T"] / 10 - 1])
+        errs.append(_k_t_errors(fit))
     assert np.all(np.median(np.abs(errs), axis=0) < 0.05)
 
 
