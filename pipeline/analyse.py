@@ -106,10 +106,11 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
                            f"{MIN_WINDOW_SAMPLES} are needed"))
             continue
         models = [f.model for f in out if f.ok]
-        if mid in REGISTRY and REGISTRY[mid].kind == "refinement" and carried:
+        refinement = mid in REGISTRY and REGISTRY[mid].kind == "refinement"
+        if refinement and carried and REGISTRY[mid].event == ev.kind:
             fit = span_fit(record, events, [i], mid, REGISTRY[mid].structures[0],
                            models=models, states=states, options=opt.refine)
-        elif mid in REGISTRY and REGISTRY[mid].kind == "refinement":
+        elif refinement:
             fit = identify(data, mid, models=models, state=states[i], options=opt.refine)
         else:
             fit = identify(data, mid)

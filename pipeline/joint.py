@@ -32,7 +32,8 @@ from .fit import Fit
 from .models import ProcessModel
 from .record import Record
 from .refine import Refinement, RefineOptions, refine
-from .refine_record import carry_source, result_parts, starts_for
+from .refine_record import carry_source, result_parts
+from .search import candidate_starts
 from .validate import fit_start, heldout_residuals
 
 
@@ -80,7 +81,7 @@ def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], s
     sl = slice(s.start, s.stop)
     horizon = float(record.t[s.stop - 1] - record.t[s.start])
     ref = refine(record.t[sl], record.u[sl], record.y[sl], structure, u_ref=s.u_ref,
-                 starts=starts_for(structure, models, horizon), mask=s.mask,
+                 starts=candidate_starts(structure, models, horizon), mask=s.mask,
                  initial_state=s.state, options=options)
     return replace(ref, initial_state=s.label), s
 

@@ -25,8 +25,10 @@ around it (a rational transfer function).
 Intervals: the profiled Jacobian of (theta, K), with the offset and state columns projected
 out (the Schur complement of the full Gauss-Newton matrix, which is how variable projection
 gives the covariance of all parameters), times the residual variance and the coloured-noise
-factor of :mod:`pipeline.uncertainty`; on log scale for positive parameters. Optionally a
-moving-block bootstrap instead.
+factor of :mod:`pipeline.uncertainty` (its effective sample size also sets the residual
+variance's and the t quantile's degrees of freedom); on log scale for positive
+parameters, so an interval never crosses zero. Optionally a moving-block bootstrap
+instead.
 """
 
 from __future__ import annotations
@@ -62,8 +64,11 @@ INTEGER_PARAMS = ("n",)
 @dataclass(frozen=True)
 class RefineOptions:
     """``n_starts`` least-squares runs from the best candidate starts; ``max_nfev``
-    residual evaluations per run; ``free_lags`` columns at most for the free response;
-    ``bootstrap`` block-bootstrap refits for the intervals (0: Jacobian intervals)."""
+    residual evaluations per run; ``max_rows`` criterion rows at most (block means beyond;
+    with ``coarse`` the search runs on a decimated copy first and the exact problem is
+    polished from its optimum); ``free_lags`` columns at most for the free response;
+    ``bootstrap`` block-bootstrap refits for the intervals (0: Jacobian intervals),
+    ``seed`` their resampling; ``level`` of the intervals."""
 
     n_starts: int = 3
     max_nfev: int = 300
@@ -192,7 +197,10 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
            ) -> Refinement:
     """Fit ``structure`` to ``y`` over the span ``t, u`` (the model starts at the first
     sample: at rest at ``u_ref`` when ``initial_state`` is "rest", else with its state
-    estimated); ``mask`` selects the samples in the criterion (all by default)."""
+    estimated); ``mask`` selects the samples in the criterion (all by default);
+    ``starts`` are parameter sets to start from (missing ones: :func:`pipeline.search.
+    defaults`), ``fixed`` parameters are held. Pure: numpy arrays in, a
+    :class:`Refinement` out."""
     opt = options or RefineOptions()
     t = np.asarray(t, dtype=np.float64)
     mask = np.ones(t.size, bool) if mask is None else np.asarray(mask, bool)
@@ -235,7 +243,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     p = {**fixed, **snap(space, best[0])}
     ref = _finish(prob, space, p, y_fit, initial_state, u_ref, opt, nfev, runs)
     if opt.bootstrap > 0:
-        ref = _bootstrap(prob, space, ref, fixed, u_ref, opt)
+        ref = _bootstrap(prob, space, ref, fixed, opt)
     return ref
 
 
@@ -326,7 +334,7 @@ def _finish(prob: _Problem, space: Space, p, y_fit, initial_state, u_ref, opt, n
     u0 = u_ref
     if STRUCTURES[prob.structure].integrating and K != 0:
         u0 = u_ref - float(c[2]) / K
-    free = [n for n in space.names]
+    free = list(space.names)
     jac = _profiled_jacobian(prob, space, p, K)
     factor = variance_factor(rows_resid)
     cov = covariance(jac, rows_resid, rank + len(free), factor)
@@ -394,8 +402,7 @@ def _canonical(structure, params, ci, std):
     return params, ci, std
 
 
-def _bootstrap(prob: _Problem, space: Space, ref: Refinement, fixed, u_ref, opt
-               ) -> Refinement:
+def _bootstrap(prob: _Problem, space: Space, ref: Refinement, fixed, opt) -> Refinement:
     """Percentile intervals from refits to ``fitted + block-resampled residuals``."""
     draws = []
     start = {n: ref.model.params[n] for n in space.names}
@@ -407,7 +414,8 @@ def _bootstrap(prob: _Problem, space: Space, ref: Refinement, fixed, u_ref, opt
             n_starts=1, max_nfev=opt.max_nfev))
         x, nuis = b.columns({**fixed, **p})
         c, _ = _solve(b.rows(np.column_stack([x, nuis])), b.y)
-        draws.append({**p, "K": float(c[0])})
+        draw = {**ref.model.params, **p, "K": float(c[0])}
+        draws.append(_canonical(prob.structure, draw, {}, {})[0])
     a = (1 - opt.level) / 2
     ci = {n: (float(np.quantile([d[n] for d in draws], a)),
               float(np.quantile([d[n] for d in draws], 1 - a))) for n in ref.ci95}

@@ -24,8 +24,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .events import EventData
+from .events import Event, EventData
 from .models import ProcessModel
+from .record import Record
 from .refine import Refinement, RefineOptions, refine
 from .search import candidate_starts
 from .uncertainty import variance_factor
@@ -64,12 +65,6 @@ def initial_state(ev: EventData, previous_settled: bool | None = None) -> str:
     return "estimated" if moving else "rest"
 
 
-def starts_for(structure: str, models: Sequence[ProcessModel], horizon: float
-               ) -> list[dict[str, float]]:
-    """Candidate starts from the graphical models of the event (:func:`candidate_starts`)."""
-    return candidate_starts(structure, list(models), horizon)
-
-
 #: The last event the graphical starts were computed for: ``identify(ev, "lsq_...")`` for
 #: each structure on the same event object reuses them (an event is immutable).
 _LAST_STARTS: list[tuple[weakref.ref, list[ProcessModel]]] = []
@@ -103,7 +98,7 @@ def refine_event(ev: EventData, structure: str, *, models: Sequence[ProcessModel
     sl = slice(fit_start(0, ev.i0, ev.t.size), ev.t.size)
     span = float(ev.t[-1] - ev.t[sl.start])
     return refine(ev.t[sl], ev.u[sl], ev.y[sl], structure, u_ref=ev.u0,
-                  starts=starts_for(structure, models, span),
+                  starts=candidate_starts(structure, models, span),
                   initial_state=state or initial_state(ev), options=options)
 
 
@@ -123,10 +118,8 @@ def result_parts(ref: Refinement, **extra) -> tuple[ProcessModel, dict, dict]:
     return ref.model, diag, dict(ref.ci95)
 
 
-def event_states(record, events) -> list[str]:
+def event_states(record: Record, events: Sequence[Event]) -> list[str]:
     """:func:`initial_state` of every event of a record."""
-    from .events import EventData
-
     return [initial_state(EventData.from_event(record, ev), events[i - 1].settled if i else None)
             for i, ev in enumerate(events)]
 
