@@ -1,10 +1,18 @@
-"""One record, analysed: segment, identify on the chosen events, validate on the others,
-grade every fit.
+"""One record, analysed: segment, identify on the chosen events, refine, validate on the
+others, grade every fit, recommend a model.
 
 :func:`analyse` is pure (a :class:`~pipeline.record.Record` and :class:`AnalysisOptions`
 in, a :class:`~pipeline.results.RecordResult` out) and is the only analysis path: the
 ``identify`` and ``run`` commands, the batch workers and the Python API all call it, so
 they give the same fits for the same record and options.
+
+Per identification event the graphical methods run first; the refinements
+(``lsq_<structure>``, :mod:`pipeline.refine_record`) start from their models. With several
+identification events each refinement also runs once over all of them (one model, the
+state carried through the record), and with ``events: all`` leave-one-event-out
+cross-validation gives its held-out error (``mse_cross_validation``; a one-event model's
+is its error on the other events). Every ok fit gets an information criterion on its own
+event (``aic``), and the record its recommended model (:func:`pipeline.recommend.recommend`).
 """
 
 from __future__ import annotations
@@ -14,11 +22,16 @@ from dataclasses import dataclass, field, replace
 from .events import EventData
 from .fit import Fit
 from .grade import grade
-from .methods import identify, select_methods
+from .joint import span_fit
+from .methods import REGISTRY, identify, select_methods
+from .metrics import mse
+from .recommend import information_criteria, recommend
 from .record import Record
+from .refine import RefineOptions
+from .refine_record import carry_source, event_states
 from .results import RecordResult
 from .segment import SegmentOptions, segment
-from .validate import score
+from .validate import heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
 MIN_WINDOW_SAMPLES = 10
@@ -30,11 +43,13 @@ class AnalysisOptions:
 
     ``events``: the identification events (indices, or "all"); the others validate.
     ``methods``: "all" (every method for each event's kind) or a list of ids.
+    ``refine``: options of the least-squares refinements (starts, bootstrap).
     """
 
     segmentation: SegmentOptions = field(default_factory=SegmentOptions)
     events: tuple[int, ...] | str = (0,)
     methods: tuple[str, ...] | str = "all"
+    refine: RefineOptions = field(default_factory=RefineOptions)
 
 
 def analyse(record: Record, options: AnalysisOptions | None = None, *,
@@ -62,18 +77,92 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     validation = [e.index for e in events if e.index not in ident]
     roles = {e.index: ("identification" if e.index in ident else "validation") for e in events}
     fits: list[Fit] = []
+    states = event_states(record, events)
     for i in ident:
-        ev = events[i]
-        data = EventData.from_event(record, ev)
-        short = ev.i_end - ev.i_start < MIN_WINDOW_SAMPLES
-        for mid in select_methods(opt.methods, ev.kind):
-            if short:
-                fits.append(Fit(mid, i, "not_applicable", f"window too short: "
-                                f"{ev.i_end - ev.i_start} samples after t0, at least "
-                                f"{MIN_WINDOW_SAMPLES} are needed"))
-                continue
+        fits.extend(_event_fits(record, events, i, validation, states, opt))
+    if len(ident) > 1:
+        fits.extend(_joint_fits(record, events, ident, validation, states, fits, opt))
+    if opt.events == "all" and len(ident) > 1:
+        fits = [_held_out(f, record, events, ident) for f in fits]
+    fits = _with_information_criteria(record, events, fits)
+    result = grade(replace(base, roles=roles, fits=fits))
+    return replace(result, recommendation=recommend(result))
+
+
+def _event_fits(record: Record, events, i: int, validation: list[int], states: list[str],
+                opt: AnalysisOptions) -> list[Fit]:
+    """The graphical methods, then the refinements, on event ``i`` (its state at rest,
+    carried from an earlier event that was, or estimated: :mod:`pipeline.joint`)."""
+    ev = events[i]
+    data = EventData.from_event(record, ev)
+    carried = states[i] != "rest" and carry_source(states, i) is not None
+    selected = select_methods(opt.methods, ev.kind)
+    short = ev.i_end - ev.i_start < MIN_WINDOW_SAMPLES
+    out: list[Fit] = []
+    graphical = [m for m in selected if m not in REGISTRY or REGISTRY[m].kind != "refinement"]
+    for mid in graphical + [m for m in selected if m not in graphical]:
+        if short:
+            out.append(Fit(mid, i, "not_applicable", f"window too short: "
+                           f"{ev.i_end - ev.i_start} samples after t0, at least "
+                           f"{MIN_WINDOW_SAMPLES} are needed"))
+            continue
+        models = [f.model for f in out if f.ok]
+        refinement = mid in REGISTRY and REGISTRY[mid].kind == "refinement"
+        if refinement and carried and REGISTRY[mid].event == ev.kind:
+            fit = span_fit(record, events, [i], mid, REGISTRY[mid].structures[0],
+                           models=models, states=states, options=opt.refine)
+        elif refinement:
+            fit = identify(data, mid, models=models, state=states[i], options=opt.refine)
+        else:
             fit = identify(data, mid)
-            if fit.ok:
-                fit = replace(fit, metrics=score(fit.model, record, events, ev, validation))
-            fits.append(fit)
-    return grade(replace(base, roles=roles, fits=fits))
+        if fit.ok:
+            fit = replace(fit, metrics=score(fit.model, record, events, ev, validation))
+        out.append(fit)
+    return out
+
+
+def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
+                states: list[str], fits: list[Fit], opt: AnalysisOptions) -> list[Fit]:
+    """Each selected refinement once over all identification events."""
+    out = []
+    kinds = {events[i].kind for i in ident}
+    methods = [m for k in sorted(kinds) for m in select_methods(opt.methods, k)
+               if m in REGISTRY and REGISTRY[m].kind == "refinement"]
+    models = [f.model for f in fits if f.ok and f.event == ident[0]]
+    for mid in dict.fromkeys(methods):
+        fit = span_fit(record, events, ident, mid, REGISTRY[mid].structures[0],
+                       models=models, states=states, cross_validation=opt.events == "all",
+                       options=opt.refine)
+        if fit.ok:
+            metrics = score(fit.model, record, events, events[ident[0]], validation)
+            fit = replace(fit, metrics={**metrics, **fit.metrics})
+        out.append(fit)
+    return out
+
+
+def _held_out(fit: Fit, record: Record, events, ident: list[int]) -> Fit:
+    """With every event identifying: a one-event model's error on the other events."""
+    if not fit.ok or fit.events or "mse_cross_validation" in fit.metrics:
+        return fit
+    _, e = heldout_residuals(fit.model, record, events, [i for i in ident if i != fit.event])
+    return replace(fit, metrics={**fit.metrics, "mse_cross_validation": mse(e, 0 * e)})
+
+
+def _with_information_criteria(record: Record, events, fits: list[Fit]) -> list[Fit]:
+    """``aic`` of every ok one-event fit on its event's baseline and window."""
+    out = list(fits)
+    for ev in events:
+        idx = [k for k, f in enumerate(fits) if f.ok and f.event == ev.index and not f.events]
+        if not idx:
+            continue
+        errors = [identification_residuals(fits[k], record, ev) for k in idx]
+        aics = information_criteria(errors, [_n_params(fits[k]) for k in idx])
+        for k, a in zip(idx, aics, strict=True):
+            out[k] = replace(fits[k], metrics={**fits[k].metrics, "aic": a})
+    return out
+
+
+def _n_params(fit: Fit) -> int:
+    """Estimated parameters of a fit: the model's, plus the offset (and the initial-state
+    coefficients of a refinement)."""
+    return int(fit.diagnostics.get("n_params", len(fit.model.spec.params) + 1))

@@ -32,7 +32,20 @@ class SegmentationConfig(_Strict):
 
 
 class IdentificationConfig(_Strict):
+    """Which events identify (the others validate; ``all``: every event, with
+    leave-one-event-out cross-validation) and how the least-squares refinements run:
+    ``starts`` runs from the best candidate starts, ``bootstrap`` block-bootstrap refits
+    for the intervals (0: Jacobian intervals scaled by the effective sample size)."""
+
     events: list[int] | Literal["all"] = Field(default_factory=lambda: [0])
+    starts: int = Field(3, ge=1, le=20)
+    bootstrap: int = Field(0, ge=0, le=2000)
+
+    def refine_options(self):
+        """The :class:`pipeline.refine.RefineOptions` of this section."""
+        from .refine import RefineOptions
+
+        return RefineOptions(n_starts=self.starts, bootstrap=self.bootstrap)
 
     @field_validator("events")
     @classmethod

@@ -39,17 +39,9 @@ class Event:
     response: str = "settling"  # "settling" | "ramp" | "level_shift" (pipeline.segment)
     slope: float = 0.0  # output slope over the last half of the window (units/s)
     drift: float = 0.0  # output slope before t0 (units/s; 0 unless significant)
-
-    def to_dict(self) -> dict:
-        return {
-            "index": self.index, "kind": self.kind, "t0": self.t0, "t_end": self.t_end,
-            "i_start": self.i_start, "i_end": self.i_end,
-            "u0": self.u0, "u_ss": self.u_ss, "y0": self.y0, "y_ss": self.y_ss,
-            "area": self.area if self.kind == "impulse" else None,
-            "duration": self.duration if self.kind == "impulse" else None,
-            "settled": self.settled, "noise": self.noise, "response": self.response,
-            "slope": self.slope, "drift": self.drift,
-        }
+    #: the change of the previous response when it was still settling at t0 (the output
+    #: then goes on moving that way for a while), 0 when it had settled or there is none
+    tail: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -79,6 +71,7 @@ class EventData:
     response: str = "settling"
     slope: float = 0.0
     drift: float = 0.0
+    tail: float = 0.0
 
     @classmethod
     def from_event(cls, record, event: Event) -> EventData:
@@ -88,6 +81,7 @@ class EventData:
             u0=event.u0, u_ss=event.u_ss, y0=event.y0, y_ss=event.y_ss, area=event.area,
             duration=event.duration, noise=event.noise, settled=event.settled,
             index=event.index, response=event.response, slope=event.slope, drift=event.drift,
+            tail=event.tail,
         )
 
     # -- views a method needs -----------------------------------------------------------

@@ -29,7 +29,9 @@ class Fit:
 
     ``ci95`` maps parameter names to 95 % intervals (refined models); ``verdict`` and
     ``flags`` are set by grading (None / empty until then); ``diagnostics`` are the points
-    the method read (t63, peaks, areas ...), in absolute record time.
+    the method read (t63, peaks, areas ...), in absolute record time. ``events`` are all
+    identification events of a model fitted over several of them (``event`` is the first);
+    empty for a model of one event.
     """
 
     method: str
@@ -42,6 +44,7 @@ class Fit:
     ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
     verdict: str | None = None
     flags: tuple[Flag, ...] = ()
+    events: tuple[int, ...] = ()
 
     @property
     def ok(self) -> bool:

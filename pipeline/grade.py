@@ -157,7 +157,7 @@ def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
     rec = result.record
     ev = result.events[fit.event]
     checks = (_unsettled, _baseline, _below_sample_time, _delay_clipped, _fit_quality,
-              _misfit, _wide_ci, _overshoot_in_noise)
+              _misfit, _wide_ci, _overshoot_in_noise, _undershoot_unmodelled)
     return [f for check in checks if (f := check(fit, ev, rec)) is not None]
 
 
@@ -298,3 +298,22 @@ def _overshoot_in_noise(fit: Fit, ev: Event, rec: Record) -> Flag | None:
                 f"{_unit_of_output(rec)}, zeta = {z:.2g}) is within three noise sigmas "
                 f"({ev.noise:.3g}): the data do not show that oscillation.",
                 {"overshoot": peak, "noise": ev.noise, "zeta": z})
+
+
+def _undershoot_unmodelled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """The data move the wrong way first (an inverse response) and the model cannot: a
+    structure without a right-half-plane zero misses the dip whatever its fit says."""
+    if ev.kind != "step" or float(fit.model.params.get("Tz", 0.0)) < 0:
+        return None
+    from .events import EventData
+    from .methods.base import moving_the_other_way, undershoot
+
+    data = EventData.from_event(rec, ev)
+    u = undershoot(data)
+    if u is None or moving_the_other_way(data) is not None:
+        return None
+    return Flag("residuals_not_white", f"The output first moves the wrong way (by "
+                f"{u['depth']:.0%} of its change, {u['t']:.3g} s after the step) and a "
+                f"{fit.model.structure.replace('_', ' ')} model cannot: its residuals are "
+                "structure, not noise (an inverse response needs a zero, Tz < 0).",
+                {"undershoot": u["depth"], "t": u["t"]})

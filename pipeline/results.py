@@ -40,11 +40,14 @@ from .version import __version__
 
 @dataclass(frozen=True)
 class Recommendation:
-    """The record's recommended model: which fit, and why (grading sets it)."""
+    """The record's recommended model: which fit, and why (:func:`pipeline.recommend.
+    recommend`; grading adds the verdict). ``events``: all events of a model fitted over
+    several (empty for a one-event fit)."""
 
     method: str
     event: int
     reason: str = ""
+    events: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -86,14 +89,18 @@ class RecordResult:
         ranked = self.ranking(ident[0] if ident else None)
         return ranked[0] if ranked else None
 
-    def fit(self, method: str, event: int) -> Fit | None:
-        return next((f for f in self.fits if f.method == method and f.event == event), None)
+    def fit(self, method: str, event: int, events: tuple[int, ...] | None = None
+            ) -> Fit | None:
+        """The fit of ``method`` on ``event`` (``events``: of a multi-event fit; None:
+        the first match)."""
+        return next((f for f in self.fits if f.method == method and f.event == event and (
+            events is None or tuple(f.events) == tuple(events))), None)
 
     @property
     def recommended(self) -> Fit | None:
         """The fit the recommendation points at."""
         r = self.recommendation
-        return self.fit(r.method, r.event) if r else None
+        return self.fit(r.method, r.event, r.events) if r else None
 
     def to_doc(self) -> RecordDoc:
         """This record's results.json entry."""
@@ -119,7 +126,8 @@ class RecordResult:
         if f is None or f.model is None:
             return None
         return RecommendedDoc(
-            method=f.method, event=f.event, structure=f.model.structure,
+            method=f.method, event=f.event, events=list(f.events),
+            structure=f.model.structure,
             params=_params(f.model.params), ci95=_ci(f.ci95), verdict=f.verdict,
             flags=[flag_doc(x) for x in f.flags], reason=self.recommendation.reason)
 
@@ -176,7 +184,8 @@ def fit_doc(f: Fit) -> FitDoc:
     metrics = MetricsDoc(**{k: _finite(v) for k, v in f.metrics.items()
                             if k in MetricsDoc.model_fields})
     return FitDoc(
-        method=f.method, event=f.event, status=f.status, reason=f.reason,
+        method=f.method, event=f.event, events=list(f.events), status=f.status,
+        reason=f.reason,
         structure=m.structure if m else None, params=_params(m.params) if m else None,
         ci95=_ci(f.ci95), transfer_function=tf, metrics=metrics, verdict=f.verdict,
         flags=[flag_doc(x) for x in f.flags], diagnostics=_plain(f.diagnostics))

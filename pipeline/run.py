@@ -63,6 +63,7 @@ def analysis_options(cfg: RunConfig) -> AnalysisOptions:
         segmentation=SegmentOptions(**cfg.segmentation.model_dump()),
         events=events if events == "all" else tuple(events),
         methods=cfg.methods if cfg.methods == "all" else tuple(cfg.methods),
+        refine=cfg.identification.refine_options(),
     )
 
 

@@ -49,13 +49,20 @@ class TransferFunctionDoc(_Doc):
 
 class MetricsDoc(_Doc):
     """Fit criteria (null where there is no data): ``ise`` over the identification event
-    (seed 002 eq. 25), ``mse_identification`` over the same samples, ``mse_validation``
-    (seed 001's J) and ``fit_percent`` (MATLAB's NRMSE fit) over the validation events."""
+    (seed 002 eq. 25), ``mse_identification`` over the same samples (both from rest at the
+    event's operating point), ``mse_validation`` (seed 001's J) and ``fit_percent``
+    (MATLAB's NRMSE fit) over the validation events (simulated continuously, the offset
+    estimated on a warm-up); ``mse_cross_validation`` the held-out MSE when every event
+    identifies (leave-one-event-out for a model of all events, the other events for a model
+    of one); ``aic`` Akaike's criterion on the identification event (one effective sample
+    size per event, so comparable between the models of an event)."""
 
     ise: float | None = None
     mse_identification: float | None = None
     mse_validation: float | None = None
     fit_percent: float | None = None
+    mse_cross_validation: float | None = None
+    aic: float | None = None
 
 
 class FitDoc(_Doc):
@@ -111,10 +118,12 @@ class BestDoc(_Doc):
 
 
 class RecommendedDoc(_Doc):
-    """The model to use for the record, with why it was chosen and whether to trust it."""
+    """The model to use for the record, with why it was chosen and whether to trust it
+    (``events``: all events of a model fitted over several; empty means ``[event]``)."""
 
     method: str
     event: int
+    events: list[int] = Field(default_factory=list)
     structure: str
     params: dict[str, float]
     ci95: dict[str, tuple[float | None, float | None]] = Field(default_factory=dict)

@@ -245,8 +245,14 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             t_end=float(t[end - 1]), u0=float(u0), u_ss=float(u_ss), y0=float(y0),
             y_ss=y_ss, area=area, duration=dur, settled=bool(settled), noise=noise,
             response=response, slope=w.slope if w is not None else 0.0, drift=drift,
+            tail=_tail(events[-1]) if events else 0.0,
         ))
     return events
+
+
+def _tail(prev: Event) -> float:
+    """The previous event's change when its response was still settling at its end."""
+    return 0.0 if prev.settled or prev.response != "settling" else prev.y_ss - prev.y0
 
 
 def _line(t: np.ndarray, y: np.ndarray, sigma: float) -> tuple[float, float]:

@@ -137,5 +137,7 @@ def test_no_method_crashes_on_random_plants(model, u0, du, sign, t0, y0, noise, 
     assert len(events) == 1
     ev = EventData.from_event(rec, events[0])
     for method in REGISTRY:
+        if REGISTRY[method].kind == "refinement" and seed % 4:
+            continue  # the refinements (tens of ms each) on a quarter of the plants
         fit = identify(ev, method)
         assert fit.status in ("ok", "not_applicable"), (method, fit.reason)

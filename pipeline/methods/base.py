@@ -14,6 +14,8 @@ here it is applied to an :class:`~pipeline.events.EventData`:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
@@ -39,6 +41,7 @@ def normalised(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
         raise NotApplicable("the output ramps without settling (an integrating process): "
                             "a self-regulating model has no gain for it")
     tau, h, sigma = fraction(ev)
+    refuse_moving_start(ev)
     u = undershoot(ev)
     if u is not None:
         raise NotApplicable(f"the output first moves the wrong way, by {u['depth']:.1%} of "
@@ -49,6 +52,44 @@ def normalised(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
 
 #: An undershoot counts when it is deeper than this fraction of the change (and the noise).
 UNDERSHOOT_MIN = 0.02
+
+
+def moving_the_other_way(ev: EventData) -> str | None:
+    """Why the output was still heading against the step's change at t0, or None.
+
+    A step that comes while the previous response still settles the other way
+    (``ev.tail``), or on a baseline whose slope heads the other way beyond 4 standard
+    errors of a line through it and by more than UNDERSHOOT_MIN of the change over the
+    stretch, makes the output go on the wrong way for a while:
+    momentum, not a zero. A reading from rest (every graphical method) cannot tell the two
+    apart."""
+    if ev.dy == 0:
+        return None
+    if ev.tail * ev.dy < 0:
+        return f"the previous response (a change of {ev.tail:.3g}) had not settled"
+    i0 = ev.i0
+    if i0 < 5:
+        return None
+    t, y = ev.t[:i0], ev.y[:i0]
+    tc = t - t.mean()
+    sxx = float(tc @ tc)
+    if sxx <= 0:
+        return None
+    slope = float(tc @ (y - y.mean())) / sxx
+    moved = abs(slope) * float(t[-1] - t[0])  # over the baseline stretch
+    if slope * ev.dy < 0 and abs(slope) > 4 * ev.noise / math.sqrt(sxx) \
+            and moved > UNDERSHOOT_MIN * abs(ev.dy):
+        return f"the baseline moves at {slope:.3g} per s"
+    return None
+
+
+def refuse_moving_start(ev: EventData) -> None:
+    """:class:`NotApplicable` when the output was still moving the other way at t0."""
+    why = moving_the_other_way(ev)
+    if why is not None:
+        raise NotApplicable(f"the output was still moving the other way when the step came "
+                            f"({why}): a reading that assumes rest at the step does not "
+                            "apply (the least-squares fit carries the state)")
 
 
 def undershoot(ev: EventData) -> dict | None:

@@ -22,7 +22,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time, extremum, smooth
-from .base import fraction, undershoot
+from .base import fraction, refuse_moving_start, undershoot
 from .registry import MethodResult, register
 
 #: Rise levels read after the zero crossing (fractions of the change).
@@ -67,6 +67,7 @@ def inverse_response(ev: EventData) -> MethodResult:
     if ev.response == "ramp":
         raise NotApplicable("the output ramps without settling (an integrating process)")
     tau, h, sigma = fraction(ev)
+    refuse_moving_start(ev)
     u = undershoot(ev)
     if u is None:
         raise NotApplicable("no undershoot: the output does not first move the wrong way "

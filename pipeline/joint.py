@@ -1,0 +1,138 @@
+"""One model over a span of the record, its state carried by the measured input: a step
+that starts on a previous step's tail, several identification events with one model, and
+leave-one-event-out cross-validation.
+
+The model is simulated continuously from the baseline of the latest event that started at
+rest (:func:`pipeline.refine_record.carry_source`; at rest there) to the end of the last
+identification event, driven by the measured input, and fitted on the identification
+events' samples only (:func:`span`): the events in between drive the state without entering
+the criterion. With no earlier rest point the state is estimated at the first
+identification event (:mod:`pipeline.basis`).
+
+* :func:`span_fit` with one event - a step on a tail: the tail is the same model's response
+  to the earlier input, so the gain is identified (an estimated free response would look
+  like the step response, see :mod:`pipeline.refine_record`);
+* :func:`span_fit` with several - one gain, one offset, no per-event parameters: a plant
+  whose gain changes with the operating point must show its misfit, not hide it;
+* :func:`cross_validate` - the joint fit again without each event in turn (its samples
+  left out, the state still carried through it) and its validation error on it
+  (:mod:`pipeline.validate`): the held-out error.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .events import Event
+from .fit import Fit
+from .models import ProcessModel
+from .record import Record
+from .refine import Refinement, RefineOptions, refine
+from .refine_record import carry_source, result_parts
+from .search import candidate_starts
+from .validate import fit_start, heldout_residuals
+
+
+@dataclass(frozen=True)
+class Span:
+    """Samples ``[start, stop)`` simulated, ``mask`` the fitted ones, the input level
+    ``u_ref`` at the start, and how the state starts ("rest" or "estimated") and is
+    described (``label``)."""
+
+    start: int
+    stop: int
+    mask: np.ndarray
+    u_ref: float
+    state: str
+    label: str
+
+
+def span(events: Sequence[Event], ident: Sequence[int], states: Sequence[str],
+         exclude: Sequence[int] = ()) -> Span:
+    """The span of a fit over the events ``ident`` (``exclude``: left out of the
+    criterion); ``states`` are the events' initial states (rest / estimated)."""
+    first = ident[0]
+    src = carry_source(states, first)
+    origin = events[first if src is None else src]
+    start = fit_start(origin.i_base, origin.i_start, origin.i_end)
+    stop = events[ident[-1]].i_end
+    mask = np.zeros(stop - start, bool)
+    for k, i in enumerate(ident):
+        if i in exclude:
+            continue
+        ev = events[i]
+        a = fit_start(ev.i_base, ev.i_start, ev.i_end) if k == 0 else ev.i_start
+        mask[a - start : ev.i_end - start] = True
+    label = ("estimated" if src is None else "rest" if src == first else
+             f"carried from event {src}")
+    return Span(start, stop, mask, origin.u0, "estimated" if src is None else "rest", label)
+
+
+def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], structure: str,
+                *, models: Sequence[ProcessModel], states: Sequence[str],
+                exclude: Sequence[int] = (), options: RefineOptions | None = None
+                ) -> tuple[Refinement, Span]:
+    """One model of ``structure`` over :func:`span`."""
+    s = span(events, ident, states, exclude)
+    sl = slice(s.start, s.stop)
+    horizon = float(record.t[s.stop - 1] - record.t[s.start])
+    ref = refine(record.t[sl], record.u[sl], record.y[sl], structure, u_ref=s.u_ref,
+                 starts=candidate_starts(structure, models, horizon), mask=s.mask,
+                 initial_state=s.state, options=options)
+    return replace(ref, initial_state=s.label), s
+
+
+def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int],
+                   joint: Refinement, *, states: Sequence[str],
+                   options: RefineOptions | None = None) -> tuple[float, list[dict]]:
+    """Leave-one-event-out: for each identification event, the joint fit without it
+    (started from the joint model) and its validation error on it. Returns the pooled
+    held-out MSE and one entry per fold (event, params, mse)."""
+    folds, errors = [], []
+    for j in ident:
+        ref, _ = refine_span(record, events, ident, joint.model.structure,
+                             models=[joint.model], states=states, exclude=(j,),
+                             options=options)
+        _, e = heldout_residuals(ref.model, record, list(events), [j])
+        errors.append(e)
+        folds.append({"event": j, "params": dict(ref.model.params),
+                      "mse": float(np.mean(e**2)) if e.size else math.nan})
+    pooled = np.concatenate(errors) if errors else np.empty(0)
+    return (float(np.mean(pooled**2)) if pooled.size else math.nan), folds
+
+
+def fold_models(structure: str, folds: Sequence[dict]) -> list[tuple[int, ProcessModel]]:
+    """The fold models stored by :func:`cross_validate` (in a fit's diagnostics)."""
+    return [(int(f["event"]), ProcessModel(structure, dict(f["params"]))) for f in folds]
+
+
+def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], method: str,
+             structure: str, *, models: Sequence[ProcessModel], states: Sequence[str],
+             cross_validation: bool = False, options: RefineOptions | None = None) -> Fit:
+    """The fit of ``method`` over the events ``ident`` (:func:`span`): ``event`` the first,
+    ``events`` all of them when there are several; the leave-one-event-out error when
+    ``cross_validation``. No output change is ``not_applicable``, a failure ``failed``;
+    never an exception."""
+    ident = list(ident)
+    many = tuple(ident) if len(ident) > 1 else ()
+    if all(abs(events[i].y_ss - events[i].y0) <= 3 * events[i].noise for i in ident):
+        return Fit(method, ident[0], "not_applicable", "the output did not change measurably "
+                   "(|y_ss - y0| <= 3 sigma)", events=many)
+    try:
+        ref, s = refine_span(record, events, ident, structure, models=models, states=states,
+                             options=options)
+        extra = {"events": ident} if many else {}
+        model, diag, ci = result_parts(ref, **extra)
+        metrics = {}
+        if cross_validation and many:
+            fold_opt = replace(options or RefineOptions(), n_starts=1, bootstrap=0)
+            metrics["mse_cross_validation"], diag["folds"] = cross_validate(
+                record, events, ident, ref, states=states, options=fold_opt)
+        return Fit(method, ident[0], "ok", None, model, metrics, diag, ci, events=many)
+    except Exception as exc:  # a bug in one fit must not lose the record's other fits
+        return Fit(method, ident[0], "failed", f"internal error: {type(exc).__name__}: {exc}",
+                   events=many)

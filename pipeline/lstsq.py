@@ -1,0 +1,47 @@
+"""Linear-algebra pieces of the separable least squares in :mod:`pipeline.refine`: block
+means for decimating a long fit, a rank-revealing solve of the linear parameters, and the
+projection that removes them (variable projection, Golub and Pereyra 1973)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def block_means(v: np.ndarray, m: int) -> np.ndarray:
+    """Means of consecutive blocks of ``m`` samples (the held input of a decimated grid)."""
+    idx = np.arange(0, v.size, m)
+    return np.add.reduceat(v, idx) / np.diff(np.r_[idx, v.size])
+
+
+def blocks(mask: np.ndarray, max_rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Row starts and sizes: blocks of ``ceil(n / max_rows)`` consecutive fit samples that
+    never straddle a gap in ``mask``."""
+    idx = np.flatnonzero(mask)
+    m = max(1, math.ceil(idx.size / max_rows))
+    if m == 1:
+        return np.arange(idx.size), np.ones(idx.size)
+    seg = np.flatnonzero(np.diff(idx) > 1) + 1  # where a new contiguous run begins
+    bounds = np.r_[0, seg, idx.size]
+    starts = np.concatenate([np.arange(a, b, m) for a, b in zip(bounds[:-1], bounds[1:],
+                                                                strict=True)])
+    return starts, np.diff(np.r_[starts, idx.size]).astype(float)
+
+
+def solve(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:
+    """Least-squares coefficients of ``a c = y`` (columns scaled, rank-revealing SVD)."""
+    scale = np.linalg.norm(a, axis=0)
+    scale[scale == 0] = 1.0
+    c, _, rank, _ = np.linalg.lstsq(a / scale, y, rcond=1e-9)
+    return c / scale, int(rank)
+
+
+def project_out(nuis: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the span of ``nuis`` (numerically rank-revealed)."""
+    u, s, _ = np.linalg.svd(nuis / np.maximum(np.linalg.norm(nuis, axis=0), 1e-300),
+                            full_matrices=False)
+    return u[:, s > 1e-9 * s[0]] if s.size and s[0] > 0 else u[:, :0]
+
+
+# -- the fit -----------------------------------------------------------------------------

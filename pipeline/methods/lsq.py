@@ -1,0 +1,75 @@
+"""The least-squares refinements as methods: one ``lsq_<structure>`` per entry of the
+structure table (:data:`pipeline.models.STRUCTURES`), generated here, so a new structure
+gets its refinement with no further edit. Each runs :func:`pipeline.refine_record.
+refine_event`, started from the graphical methods' readings of the same event.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Callable
+
+from ..errors import NotApplicable
+from ..events import EventData
+from ..models import STRUCTURES, ProcessModel
+from ..refine_record import refine_event, result_parts
+from .registry import REGISTRY, MethodResult, identify, register
+
+#: The last event the graphical starts were computed for: ``identify(ev, "lsq_...")`` for
+#: each structure on the same event object reuses them (an event is immutable).
+_LAST_STARTS: list[tuple[weakref.ref, list[ProcessModel]]] = []
+
+
+def graphical_models(ev: EventData) -> list[ProcessModel]:
+    """The models of every graphical method that applies to the event (the starts of a
+    refinement called on an event alone)."""
+    if _LAST_STARTS and _LAST_STARTS[0][0]() is ev:
+        return list(_LAST_STARTS[0][1])
+    out = []
+    for info in REGISTRY.values():
+        if info.kind == "graphical" and info.event == ev.kind:
+            fit = identify(ev, info.id)
+            if fit.ok:
+                out.append(fit.model)
+    _LAST_STARTS[:] = [(weakref.ref(ev), out)]
+    return list(out)
+
+
+def refinement_id(structure: str) -> str:
+    """The id of the least-squares refinement of ``structure``."""
+    return f"lsq_{structure}"
+
+
+def _refinement(structure: str) -> Callable[..., MethodResult]:
+    def method(ev: EventData, **context) -> MethodResult:
+        """``context``: ``models`` (starts), ``state``, ``options`` (see refine_event)."""
+        if ev.response == "ramp" and not STRUCTURES[structure].integrating:
+            raise NotApplicable("the output ramps without settling (an integrating process): "
+                                "a self-regulating model has no gain for it")
+        if ev.dy == 0 or not math.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
+            raise NotApplicable("the output did not change measurably (|y_ss - y0| <= 3 "
+                                "sigma)")
+        if context.get("models") is None:
+            context = {**context, "models": graphical_models(ev)}
+        model, diagnostics, ci95 = result_parts(refine_event(ev, structure, **context))
+        return MethodResult(model, diagnostics, ci95)
+
+    method.__doc__ = (f"Least-squares refinement of a {structure} model on one event "
+                      "(pipeline.refine_record.refine_event).")
+    return method
+
+
+def register_refinements() -> None:
+    """One ``lsq_<structure>`` per entry of :data:`pipeline.models.STRUCTURES` (those not
+    registered yet)."""
+    for name in STRUCTURES:
+        if refinement_id(name) in REGISTRY:
+            continue
+        register(id=refinement_id(name), event="step", structures=(name,),
+                 references=("ljung1999", "golub1973"), kind="refinement",
+                 source="output-error least squares (pipeline.refine)",
+                 title=f"least squares: {name.replace('_', ' ')}")(_refinement(name))
+
+
+register_refinements()

@@ -1,0 +1,244 @@
+"""The recommended model of a record: the lowest held-out error, the simpler structure when
+the difference is within its uncertainty (DESIGN.md "Validation and grading").
+
+:func:`recommend` is a pure function of a :class:`~pipeline.results.RecordResult` (or
+anything with its ``record``, ``events``, ``fits``, ``validation_events`` and
+``identification_events``) and returns a :class:`~pipeline.results.Recommendation`:
+
+1. The criterion: the validation MSE when the record has validation events; else, with
+   several identification events, the held-out MSE (``mse_cross_validation``:
+   leave-one-event-out for a model of all events, the other events for a model of one);
+   else (one event, nothing held out) Akaike's information criterion on the
+   identification fit (``aic``).
+2. Each structure is represented by its least-squares refinement (fitted to all the
+   identification data, with intervals), unless a graphical model of that structure is
+   better by more than the uncertainty (Bonferroni-corrected for their number,
+   :data:`LEVEL`: the refinement missed). Across structures the lowest wins, unless a
+   simpler structure (fewer parameters in the structure table) is not worse by more than
+   :data:`Z_STRUCTURE` standard errors, or predicts the same within a quarter of the noise
+   (:func:`equivalent`: a more complex structure that nests it wins such ties only by
+   fitting noise). For a held-out MSE the uncertainty is a paired
+   test on the squared errors of the same samples: a candidate is as good as the best
+   when the mean of ``e_c^2 - e_best^2`` is within ``z`` standard errors of zero, the
+   standard error the one fresh noise would give
+   (:func:`paired_difference`; cf. the Diebold-Mariano test, F. X. Diebold, R. S.
+   Mariano, "Comparing predictive accuracy", J. Business & Economic Statistics
+   13(3):253-263, 1995). For the AIC, a difference of at most 2 (K. P. Burnham, D. R.
+   Anderson, Model Selection and Multimodel Inference, 2nd ed., 2002, sec. 2.6). So fresh
+   noise does not flip the choice night to night between models the data cannot tell
+   apart, and a far worse model is never "as good" because its errors are one long
+   correlated pattern.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from .fit import Fit
+from .joint import fold_models
+from .results import Recommendation
+from .uncertainty import variance_factor
+from .validate import heldout_residuals
+
+#: Standard errors within which a simpler structure counts as good as the best (95 %).
+Z_STRUCTURE = 1.96
+#: Models whose held-out predictions differ by less than this share of the noise standard
+#: deviation (RMS) are equivalent: the simpler structure is kept.
+EQUIVALENT = 0.25
+#: Family-wise level at which a graphical model must beat the refinement of its own
+#: structure (Bonferroni over the graphical models of the structure): the best of several
+#: readings on the same validation noise wins by chance often.
+LEVEL = 0.05
+#: AIC difference within which a simpler model counts as good as the best.
+AIC_MARGIN = 2.0
+
+
+def information_criteria(errors: Sequence[tuple[float, int, float]], n_params: Sequence[int]
+                         ) -> list[float]:
+    """AIC ``n_eff ln(SSE / n) + 2 k`` of fits to the same samples (``errors``: SSE, n,
+    variance factor), with one effective sample size for all: ``n / f`` of the fit with
+    the smallest SSE (Akaike's criterion for Gaussian errors, Ljung, System
+    Identification, 2nd ed., eq. 16.33; ``n_eff`` for coloured residuals)."""
+    if not errors:
+        return []
+    best = min(errors, key=lambda e: e[0])
+    n_eff = best[1] / max(best[2], 1.0)
+    return [n_eff * math.log(max(sse, 1e-300) / n) + 2 * k
+            for (sse, n, _), k in zip(errors, n_params, strict=True)]
+
+
+def refined(fit: Fit) -> bool:
+    """Whether the fit is a least-squares refinement (it used all the identification data;
+    among models the held-out data cannot tell apart it is preferred)."""
+    return "mse_fit" in fit.diagnostics
+
+
+def complexity(fit: Fit) -> int:
+    """Parameters of the fit's structure (the structure table): the simpler, the fewer."""
+    return len(fit.model.spec.params)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A fit, its criterion value and its held-out errors at sample indices ``idx``."""
+
+    fit: Fit
+    error: float
+    idx: np.ndarray
+    e: np.ndarray
+
+
+def criterion(result) -> str:
+    """Which error decides for this record (see the module docstring)."""
+    if result.validation_events:
+        return "mse_validation"
+    if len(result.identification_events) > 1:
+        return "mse_cross_validation"
+    return "aic"
+
+
+def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
+    """``(sample indices, errors)`` of a fit on the data held out from it."""
+    rec, events = result.record, list(result.events)
+    if result.validation_events:
+        return heldout_residuals(fit.model, rec, events, result.validation_events)
+    if fit.diagnostics.get("folds"):
+        parts = [heldout_residuals(m, rec, events, [j])
+                 for j, m in fold_models(fit.model.structure, fit.diagnostics["folds"])]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    others = [i for i in result.identification_events if i != fit.event]
+    return heldout_residuals(fit.model, rec, events, others)
+
+
+def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
+              ) -> Recommendation | None:
+    """The recommended model of ``result`` (see the module docstring); None without an ok
+    fit that has a finite criterion."""
+    crit = criterion(result)
+    fits = [f for f in result.fits if f.ok and f.model is not None
+            and math.isfinite(f.metrics.get(crit, math.nan))]
+    if not fits:
+        return None
+    if crit == "aic":
+        return _by_aic(fits, aic_margin)
+    cands = []
+    for f in fits:
+        idx, e = held_out(f, result)
+        cands.append(Candidate(f, float(f.metrics[crit]), idx, e))
+    noise = measurement_noise(result, min(cands, key=lambda c: c.error).idx)
+    reps = [_representative(group, noise, level) for group in _by_structure(cands)]
+    best = min(reps, key=lambda c: (c.error, complexity(c.fit)))
+    tied = []
+    for c in reps:
+        diff, se = paired_difference(c, best, noise)
+        if c is best or diff <= Z_STRUCTURE * se or equivalent(c, best, noise):
+            tied.append((c, diff, se))
+    chosen, diff, se = min(tied, key=lambda t: (complexity(t[0].fit), t[0].error))
+    name = {"mse_validation": "validation MSE",
+            "mse_cross_validation": "held-out MSE"}[crit]
+    lowest = min(cands, key=lambda c: c.error)
+    if chosen is not best or lowest is chosen:
+        return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
+                               len(cands), f"difference {diff:.3g} +- {se:.2g}, within "
+                               f"{Z_STRUCTURE:g} standard errors")
+    diff, se = paired_difference(chosen, lowest, noise)
+    reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method} read "
+              f"{lowest.error:.4g} off the response of the same structure, within the "
+              f"uncertainty (difference {diff:.3g} +- {se:.2g}), and the refinement is "
+              "fitted to all the identification data, with intervals")
+    return Recommendation(chosen.fit.method, chosen.fit.event, reason,
+                          events=tuple(chosen.fit.events))
+
+
+def equivalent(c: Candidate, best: Candidate, noise: float) -> bool:
+    """Whether two models predict the held-out samples within :data:`EQUIVALENT` of the
+    noise standard deviation (RMS): then they are the same model for any use, and a win
+    of the more complex one is its extra parameters fitting the identification noise."""
+    _, ic, ib = np.intersect1d(c.idx, best.idx, return_indices=True)
+    if ic.size == 0:
+        return False
+    return float(np.sqrt(np.mean((c.e[ic] - best.e[ib]) ** 2))) <= EQUIVALENT * math.sqrt(noise)
+
+
+def _by_structure(cands: list[Candidate]) -> list[list[Candidate]]:
+    groups: dict[str, list[Candidate]] = {}
+    for c in cands:
+        groups.setdefault(c.fit.model.structure, []).append(c)
+    return list(groups.values())
+
+
+def _representative(group: list[Candidate], noise: float, level: float) -> Candidate:
+    """The model that stands for a structure: its best refinement, unless a graphical
+    model of the structure is better by more than the uncertainty (Bonferroni over them:
+    the best of several readings on the same validation noise wins by chance often)."""
+    lsq = [c for c in group if refined(c.fit)]
+    graph = sorted((c for c in group if not refined(c.fit)), key=lambda c: c.error)
+    if not lsq:
+        return graph[0]
+    rep = min(lsq, key=lambda c: c.error)
+    if graph and graph[0].error < rep.error:
+        diff, se = paired_difference(rep, graph[0], noise)
+        if diff > float(stats.norm.ppf(1 - level / (2 * len(graph)))) * se:
+            return graph[0]
+    return rep
+
+
+def measurement_noise(result, idx: np.ndarray) -> float:
+    """Variance of the measurement noise on the samples ``idx``: the mean of the squared
+    noise estimates of the events they belong to (segmentation's estimate from fourth
+    differences, which a smooth misfit does not enter)."""
+    evs = [e for e in result.events if np.any((idx >= e.i_start) & (idx < e.i_end))]
+    return float(np.mean([e.noise**2 for e in evs])) if evs else 0.0
+
+
+def paired_difference(c: Candidate, best: Candidate, noise: float) -> tuple[float, float]:
+    """Mean of ``d = e_c^2 - e_best^2`` over the samples both were scored on, and its
+    standard error under fresh noise.
+
+    Both errors share the measured noise ``n``: ``e = m + n`` with each model's own misfit
+    ``m``, so ``delta = e_c - e_best = m_c - m_best`` holds no noise and ``d = 2 delta
+    e_best + delta^2``. Fresh noise moves the mean of ``d`` through ``2 delta n`` only:
+    ``Var = 4 sigma^2 f mean(delta^2) / N`` with ``sigma^2`` the measurement noise
+    variance (``noise``, :func:`measurement_noise`) and ``f`` the colour of the best
+    model's errors (:func:`pipeline.uncertainty.variance_factor`). The sample variance of
+    ``d``, or the best model's error as the noise, would count a systematic misfit (one
+    long correlated error pattern) as uncertainty and call a far worse model "as good"."""
+    common, ic, ib = np.intersect1d(c.idx, best.idx, return_indices=True)
+    if common.size < 2:
+        return math.inf, 0.0
+    eb = best.e[ib]
+    delta = c.e[ic] - eb
+    d = c.e[ic] ** 2 - eb**2
+    var = 4 * noise * variance_factor(eb) * float(np.mean(delta**2))
+    return float(np.mean(d)), math.sqrt(var / d.size)
+
+
+def _by_aic(fits: list[Fit], margin: float) -> Recommendation:
+    best = min(fits, key=lambda f: (f.metrics["aic"], complexity(f)))
+    tied = [f for f in fits if f.metrics["aic"] <= best.metrics["aic"] + margin]
+    chosen = min(tied, key=lambda f: (complexity(f), f.metrics["aic"]))
+    return _recommendation(chosen, best, "AIC on the identification event",
+                           chosen.metrics["aic"], best.metrics["aic"], len(fits),
+                           f"within {margin:g} of it", note="one identification event and no "
+                           "validation event, so nothing was held out: ")
+
+
+def _recommendation(chosen: Fit, best: Fit, name: str, err: float, best_err: float, n: int,
+                    margin: str, note: str = "") -> Recommendation:
+    where = _where(chosen)
+    if chosen is best:
+        return Recommendation(chosen.method, chosen.event, f"{note}lowest {name} ({err:.4g}) "
+                              f"of {n} models ({where})", events=tuple(chosen.events))
+    reason = (f"{note}{name} {err:.4g}, as good as the lowest ({best.method}: {best_err:.4g}; "
+              f"{margin}), and a simpler structure ({chosen.model.structure}, "
+              f"{complexity(chosen)} parameters against {complexity(best)}) ({where})")
+    return Recommendation(chosen.method, chosen.event, reason, events=tuple(chosen.events))
+
+
+def _where(fit: Fit) -> str:
+    return f"events {', '.join(map(str, fit.events))}" if fit.events else f"event {fit.event}"

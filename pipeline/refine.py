@@ -1,0 +1,387 @@
+"""Least-squares refinement: the output-error model of one structure fitted to the data as a
+whole, with the operating point and the initial state estimated, and calibrated intervals.
+
+The model driven by the measured input (exact zero-order hold, fractional dead time,
+:mod:`pipeline.basis`), in deviation variables from ``(u_ref, y0)``:
+
+    y_hat(t) = y0 + K x(t; theta) + sum_j c_j b_j(t; theta) [+ c_u s(t; theta)]
+
+is fitted by minimising the simulation (output) error over the chosen samples, the
+output-error / prediction-error method with an output-error noise model (Ljung, System
+Identification, 2nd ed., 1999, sec. 4.2 and 7.2). The gain ``K``, the offset ``y0``, the
+free-response coefficients ``c_j`` (the initial state, when it is estimated) and, for an
+integrating structure, the input balance point enter linearly, so they are solved by
+linear least squares inside the residual function: separable least squares, or variable
+projection (G. H. Golub, V. Pereyra, "The differentiation of pseudo-inverses and nonlinear
+least squares problems whose variables separate", SIAM J. Numer. Anal. 10(2):413-432,
+1973). The nonlinear search (``scipy.optimize.least_squares``, trust-region reflective,
+bounded) only sees the time constants, damping, order and dead time, on log scale where
+a parameter is positive (:mod:`pipeline.search`). It runs from the best few of many
+candidate starts (the graphical methods' models, and templates scaled to their time
+scales, :func:`pipeline.search.candidate_starts`) and keeps the best.
+An order ``n`` is searched as a real number, then fixed at the better of the two integers
+around it (a rational transfer function).
+
+Intervals: the profiled Jacobian of (theta, K), with the offset and state columns projected
+out (the Schur complement of the full Gauss-Newton matrix, which is how variable projection
+gives the covariance of all parameters), times the residual variance and the coloured-noise
+factor of :mod:`pipeline.uncertainty` (its effective sample size also sets the residual
+variance's and the t quantile's degrees of freedom); on log scale for positive
+parameters, so an interval never crosses zero. Optionally a moving-block bootstrap
+instead.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import basis
+from .lstsq import block_means, blocks, project_out, solve
+from .models import STRUCTURES, ProcessModel
+from .search import Space, defaults, search_space, snap
+from .uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
+
+#: Iterations of the pilot runs from each start (the best one then runs to convergence).
+PILOT_NFEV = 3
+#: Starts count as distinct when a log-scale parameter differs by this (a factor 1.65) or a
+#: linear one by this share of the window.
+DISTINCT_LOG, DISTINCT_LINEAR = 0.5, 0.05
+#: Relative tolerances of the search (cost and step): far below a noise-limited precision.
+FTOL = 1e-5
+#: Degrees of freedom of the interval quantile at least: fewer effective samples mean the
+#: residuals are a systematic misfit, not noise (the standard error already grew by the
+#: variance factor; grading reads ``n_eff`` to say so).
+MIN_DOF = 10
+#: Parameters fitted as integers (the order of an equal-lag chain, as Strejc's n).
+INTEGER_PARAMS = ("n",)
+
+
+@dataclass(frozen=True)
+class RefineOptions:
+    """``n_starts`` least-squares runs from the best candidate starts; ``max_nfev``
+    residual evaluations per run; ``max_rows`` criterion rows at most (block means beyond;
+    with ``coarse`` the search runs on a decimated copy first and the exact problem is
+    polished from its optimum); ``free_lags`` columns at most for the free response;
+    ``bootstrap`` block-bootstrap refits for the intervals (0: Jacobian intervals),
+    ``seed`` their resampling; ``level`` of the intervals."""
+
+    n_starts: int = 3
+    max_nfev: int = 300
+    max_rows: int = 600
+    coarse: bool = True
+    free_lags: int = 3
+    bootstrap: int = 0
+    seed: int = 0
+    level: float = 0.95
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """A refined model: its parameters with intervals, the fitted operating point, the
+    fit over the chosen samples (``fitted``, ``residuals``) and how it was obtained."""
+
+    model: ProcessModel
+    y0: float
+    u0: float
+    ci95: dict[str, tuple[float, float]]
+    std: dict[str, float]
+    fitted: np.ndarray
+    residuals: np.ndarray
+    initial_state: str
+    n_linear: int
+    variance_factor: float
+    nfev: int
+    n_runs: int
+    diagnostics: dict = field(default_factory=dict)
+
+    @property
+    def mse(self) -> float:
+        return float(np.mean(self.residuals**2)) if self.residuals.size else math.nan
+
+    @property
+    def n_params(self) -> int:
+        """Estimated parameters: the model's (K and the searched ones) plus the linear
+        nuisances (offset, state, input balance point)."""
+        return len(self.std) + self.n_linear - 1
+
+    @property
+    def n_eff(self) -> float:
+        return self.residuals.size / self.variance_factor
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """The data of a fit. The criterion rows are the fit samples, or on a long window the
+    means of blocks of consecutive fit samples times sqrt(block size) (the model is still
+    simulated at every sample; averaging only drops within-block noise)."""
+
+    structure: str
+    t_rel: np.ndarray  # time since the span start
+    du: np.ndarray  # u - u_ref over the span
+    y: np.ndarray  # measured output at the criterion rows
+    mask: np.ndarray  # fit samples of the span
+    starts: np.ndarray  # first fit sample (index into the masked samples) of each row
+    counts: np.ndarray  # fit samples per row
+    dt: float | None
+    horizon: float
+    estimate_state: bool
+    free_lags: int
+    full: bool = False  # every sample of the span is a fit sample
+
+    def rows(self, a: np.ndarray) -> np.ndarray:
+        """Criterion rows of span columns ``a`` (or of a span vector)."""
+        m = a if self.full else a[self.mask]
+        if self.starts.size == m.shape[0]:
+            return m
+        w = np.sqrt(self.counts) if m.ndim == 1 else np.sqrt(self.counts)[:, None]
+        return np.add.reduceat(m, self.starts, axis=0) / w
+
+    def columns(self, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, nuisance columns)`` over the whole span."""
+        x = basis.forced_response(self.structure, dict(p), self.t_rel, self.du, self.dt)
+        cols = [np.ones_like(x)]
+        if STRUCTURES[self.structure].integrating:
+            cols.append(basis.offset_response(self.structure, dict(p), self.t_rel))
+        if self.estimate_state:
+            b = basis.free_basis(self.structure, dict(p), self.t_rel, self.horizon,
+                                 self.free_lags)
+            cols.extend(b.T)
+        return x, np.column_stack(cols)
+
+
+def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[str, float]],
+           mask: np.ndarray | None = None, initial_state: str = "rest",
+           fixed: Mapping[str, float] | None = None, options: RefineOptions | None = None
+           ) -> Refinement:
+    """Fit ``structure`` to ``y`` over the span ``t, u`` (the model starts at the first
+    sample: at rest at ``u_ref`` when ``initial_state`` is "rest", else with its state
+    estimated); ``mask`` selects the samples in the criterion (all by default);
+    ``starts`` are parameter sets to start from (missing ones: :func:`pipeline.search.
+    defaults`), ``fixed`` parameters are held. Pure: numpy arrays in, a
+    :class:`Refinement` out."""
+    opt = options or RefineOptions()
+    t = np.asarray(t, dtype=np.float64)
+    mask = np.ones(t.size, bool) if mask is None else np.asarray(mask, bool)
+    dt = basis.uniform_step(t)
+    span = float(t[-1] - t[0])
+    starts_, counts = blocks(mask, opt.max_rows)
+    y = np.asarray(y, np.float64)
+    prob = _Problem(structure, t - t[0], np.asarray(u, np.float64) - u_ref, y, mask, starts_,
+                    counts, dt, span, initial_state != "rest", opt.free_lags,
+                    bool(mask.all()))
+    prob = replace(prob, y=prob.rows(y))
+    y_fit = y[mask]
+    spec = STRUCTURES[structure]
+    fixed = dict(fixed or {})
+    names = [n for n in spec.params if n != "K" and n not in fixed]
+    dt_eff = dt or float(np.median(np.diff(t)))
+    space = search_space(structure, names, dt_eff, span)
+    ints = [n for n in names if n in INTEGER_PARAMS]
+    m = math.ceil(t.size / opt.max_rows)
+    if dt is not None and m > 2 and opt.coarse:
+        # coarse to fine: the search on a decimated copy, the exact problem polished
+        c = refine(t[::m], block_means(np.asarray(u, np.float64), m), y[::m], structure,
+                   u_ref=u_ref, starts=starts, mask=mask[::m], initial_state=initial_state,
+                   fixed=fixed, options=replace(opt, bootstrap=0, coarse=False))
+        start = {n: c.model.params[n] for n in names}
+        if ints:
+            best, nfev = _integer(prob, structure, space, fixed, start, ints, dt_eff, span,
+                                  opt, polish=True)
+        else:
+            best = _multistart(prob, space, fixed, [start], replace(opt, n_starts=1))[:3]
+            nfev = best[2]
+        nfev, runs = nfev + c.nfev, c.n_runs
+    else:
+        best = _multistart(prob, space, fixed, starts, opt)
+        nfev, runs = best[2], best[3]
+        if ints:
+            best, extra = _integer(prob, structure, space, fixed, best[0], ints, dt_eff, span,
+                                   opt)
+            nfev += extra
+    p = {**fixed, **snap(space, best[0])}
+    ref = _finish(prob, space, p, y_fit, initial_state, u_ref, opt, nfev, runs)
+    if opt.bootstrap > 0:
+        ref = _bootstrap(prob, space, ref, fixed, opt)
+    return ref
+
+
+def _residual(prob: _Problem, p: Mapping[str, float]) -> np.ndarray:
+    x, nuis = prob.columns(p)
+    a = prob.rows(np.column_stack([x, nuis]))
+    c, _ = solve(a, prob.y)
+    return prob.y - a @ c
+
+
+def _multistart(prob, space: Space, fixed, starts, opt: RefineOptions):
+    """``(params, cost, nfev, runs)`` of the best least-squares run from the
+    ``opt.n_starts`` best distinct candidate starts."""
+    if not space.names:
+        return {}, 0.5 * float(np.sum(_residual(prob, fixed) ** 2)), 1, 0
+
+    def fun(z):
+        r = _residual(prob, {**fixed, **space.from_z(z)})
+        return r if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
+
+    cands = []
+    for s in starts:
+        try:
+            z = space.to_z({**defaults(space.names), **s})
+        except (KeyError, ValueError):
+            continue
+        cands.append((0.5 * float(np.sum(fun(z) ** 2)), tuple(np.round(z, 6)), z))
+    if not cands:
+        z = space.to_z(defaults(space.names))
+        cands = [(0.5 * float(np.sum(fun(z) ** 2)), (), z)]
+    cands.sort(key=lambda c: c[0])
+    chosen: list[np.ndarray] = []
+    tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)
+    for _, _, z in cands:
+        if all(np.max(np.abs(z - c) / tol) > 1.0 for c in chosen):
+            chosen.append(z)
+        if len(chosen) == opt.n_starts:
+            break
+    nfev = len(cands)
+
+    def run(z0, max_nfev):
+        nonlocal nfev
+        res = least_squares(fun, z0, bounds=(space.lo, space.hi), method="trf",
+                            max_nfev=max_nfev, x_scale=1.0, ftol=FTOL, xtol=FTOL)
+        nfev += res.nfev + (res.njev or 0) * len(z0)
+        return res
+
+    # a few iterations from each start, then the best one to convergence
+    runs = [run(z0, PILOT_NFEV) for z0 in chosen] if len(chosen) > 1 else []
+    best = min(runs, key=lambda r: r.cost) if runs else None
+    if best is None or best.status == 0:  # 0: stopped by max_nfev
+        best = run(chosen[0] if best is None else best.x, opt.max_nfev)
+    return space.from_z(best.x), float(best.cost), nfev, len(chosen)
+
+
+def _integer(prob, structure, space: Space, fixed, p_best, ints, dt, span, opt,
+             polish: bool = False):
+    """Refit with each integer parameter fixed at the integers around its real optimum
+    (``polish``: at the value it has, an integer already)."""
+    options = [[round(p_best[n])] if polish or abs(p_best[n] - round(p_best[n])) < 0.2 else
+               [math.floor(p_best[n]), math.ceil(p_best[n])] for n in ints]
+    rest = [n for n in space.names if n not in ints]
+    sub = search_space(structure, rest, dt, span)
+    best, nfev = None, 0
+    for combo in itertools.product(*options):
+        lo_hi = [STRUCTURES[structure].bounds.get(n, (-math.inf, math.inf)) for n in ints]
+        vals = {n: float(min(max(v, lo), hi)) for n, v, (lo, hi) in
+                zip(ints, combo, lo_hi, strict=True)}
+        fx = {**fixed, **vals}
+        p, cost, k, _ = _multistart(prob, sub, fx, [p_best], RefineOptions(
+            n_starts=1, max_nfev=opt.max_nfev))
+        nfev += k
+        if best is None or cost < best[1]:
+            best = ({**p, **vals}, cost)
+    return best, nfev
+
+
+def _finish(prob: _Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
+            ) -> Refinement:
+    """Linear coefficients, the profiled Jacobian and the intervals at ``p``."""
+    x, nuis = prob.columns(p)
+    a = np.column_stack([x, nuis])
+    c, rank = solve(prob.rows(a), prob.y)
+    rows_resid = prob.y - prob.rows(a) @ c
+    fitted = a[prob.mask] @ c
+    resid = y_fit - fitted
+    K, y0 = float(c[0]), float(c[1])
+    u0 = u_ref
+    if STRUCTURES[prob.structure].integrating and K != 0:
+        u0 = u_ref - float(c[2]) / K
+    free = list(space.names)
+    jac = _profiled_jacobian(prob, space, p, K)
+    factor = variance_factor(rows_resid)
+    cov = covariance(jac, rows_resid, rank + len(free), factor)
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    q = t_quantile(max(rows_resid.size / factor - rank - len(free), MIN_DOF), opt.level)
+    z = space.to_z(p) if free else np.empty(0)
+    ci = {"K": (K - q * float(sd[-1]), K + q * float(sd[-1]))}
+    std = {"K": float(sd[-1])}
+    for i, n in enumerate(free):
+        lo, hi = z[i] - q * sd[i], z[i] + q * sd[i]
+        if space.log[i]:
+            ci[n] = (math.exp(max(lo, -700.0)), math.exp(min(hi, 700.0)))
+            std[n] = float(sd[i] * p[n])
+        else:
+            b_lo, b_hi = STRUCTURES[prob.structure].bounds.get(n, (-math.inf, math.inf))
+            ci[n] = (max(float(lo * space.scale[i]), b_lo), min(float(hi * space.scale[i]), b_hi))
+            std[n] = float(sd[i] * space.scale[i])
+    params = {n: K if n == "K" else float(p[n]) for n in STRUCTURES[prob.structure].params}
+    params, ci, std = _canonical(prob.structure, params, ci, std)
+    model = ProcessModel(prob.structure, params)
+    return Refinement(
+        model=model, y0=y0, u0=float(u0), ci95=ci, std=std, fitted=fitted, residuals=resid,
+        initial_state=initial_state, n_linear=rank, variance_factor=variance_factor(resid),
+        nfev=nfev, n_runs=runs, diagnostics={"coefficients": [float(v) for v in c[2:]],
+                                             "rows": int(prob.y.size)})
+
+
+def _profiled_jacobian(prob: _Problem, space: Space, p, K: float) -> np.ndarray:
+    """Jacobian of ``P(theta) (y - K x(theta))`` wrt (z, K), the nuisance columns (offset,
+    state, input balance) projected out by ``P``; central differences in z."""
+    def prof(z):
+        q = {**p, **space.from_z(z)}
+        x, nuis = prob.columns(q)
+        qb = project_out(prob.rows(nuis))
+        xr = prob.rows(x)
+        r = prob.y - K * xr
+        return r - qb @ (qb.T @ r), xr, qb
+
+    z0 = space.to_z(p) if space.names else np.empty(0)
+    _, x0, q0 = prof(z0)
+    cols = []
+    for i in range(z0.size):
+        h = 1e-5 * max(1.0, abs(z0[i]))
+        up, dn = min(z0[i] + h, space.hi[i]), max(z0[i] - h, space.lo[i])
+        zu, zd = z0.copy(), z0.copy()
+        zu[i], zd[i] = up, dn
+        cols.append((prof(zu)[0] - prof(zd)[0]) / max(up - dn, 1e-300))
+    cols.append(-(x0 - q0 @ (q0.T @ x0)))
+    return np.column_stack(cols)
+
+
+def _canonical(structure, params, ci, std):
+    """Order exchangeable time constants (e.g. two lags) so that T1 >= T2: detected by
+    swapping them and comparing the step responses, for any structure."""
+    if not {"T1", "T2"} <= set(params) or params["T1"] >= params["T2"]:
+        return params, ci, std
+    spec = STRUCTURES[structure]
+    swap = {**params, "T1": params["T2"], "T2": params["T1"]}
+    tt = np.linspace(0.05, 5.0, 25) * spec.time_scale(params)
+    if np.allclose(spec.step(params, tt), spec.step(swap, tt), rtol=1e-9, atol=1e-12):
+        for d in (ci, std):
+            if "T1" in d and "T2" in d:
+                d["T1"], d["T2"] = d["T2"], d["T1"]
+        return swap, ci, std
+    return params, ci, std
+
+
+def _bootstrap(prob: _Problem, space: Space, ref: Refinement, fixed, opt) -> Refinement:
+    """Percentile intervals from refits to ``fitted + block-resampled residuals``."""
+    draws = []
+    start = {n: ref.model.params[n] for n in space.names}
+    y_span = np.zeros(prob.mask.size)
+    for e in block_bootstrap_residuals(ref.residuals, opt.bootstrap, opt.seed):
+        y_span[prob.mask] = ref.fitted + e
+        b = replace(prob, y=prob.rows(y_span))
+        p, _, _, _ = _multistart(b, space, fixed, [start], RefineOptions(
+            n_starts=1, max_nfev=opt.max_nfev))
+        x, nuis = b.columns({**fixed, **p})
+        c, _ = solve(b.rows(np.column_stack([x, nuis])), b.y)
+        draw = {**ref.model.params, **p, "K": float(c[0])}
+        draws.append(_canonical(prob.structure, draw, {}, {})[0])
+    a = (1 - opt.level) / 2
+    ci = {n: (float(np.quantile([d[n] for d in draws], a)),
+              float(np.quantile([d[n] for d in draws], 1 - a))) for n in ref.ci95}
+    diag = {**ref.diagnostics, "interval_method": f"block bootstrap ({opt.bootstrap} refits)"}
+    return Refinement(**{**ref.__dict__, "ci95": ci, "diagnostics": diag})
