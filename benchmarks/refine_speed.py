@@ -5,7 +5,7 @@ events, in the same run.
 
 For each record: the median wall time (of --reps runs) of all graphical step methods on
 the identification event, of each ``lsq_<structure>`` on it (started from those graphical
-models, as :func:`pipeline.analyse.analyse` does), and of the whole ``analyse`` (methods,
+models, as :func:`pipeline.analysis.analyse` does), and of the whole ``analyse`` (methods,
 refinements, continuous validation, recommendation); the ratio refinements / graphical.
 Records: the three synthetic plants of the issue (1 % noise, two steps), a long
 event (the coarse-to-fine path) and, with ``--daisy`` (needs the dataset, e.g.
@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.analyse import AnalysisOptions, analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.events import EventData
 from pipeline.methods import REGISTRY, identify, select_methods
 from pipeline.models import ProcessModel
 from pipeline.record import Record
-from pipeline.segment import segment
+from pipeline.segmentation import segment
 from pipeline.synth import step_record
 
 PLANTS = {

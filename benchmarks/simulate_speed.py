@@ -18,7 +18,7 @@ import control
 import numpy as np
 
 from pipeline.models import ProcessModel
-from pipeline.simulate import simulate
+from pipeline.simulation import simulate
 
 MODELS = {
     "K/(Ts+1)": ProcessModel("first_order", {"K": 2.0, "T": 7.0}),

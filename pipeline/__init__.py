@@ -27,12 +27,12 @@ from .version import __version__
 #: public name -> module that defines it
 _API = {
     "load": "api", "identify": "api",
-    "analyse": "analyse", "AnalysisOptions": "analyse",
+    "analyse": "analysis", "AnalysisOptions": "analysis",
     "run_config": "run", "identify_file": "run",
     "Record": "record", "make_record": "record",
-    "segment": "segment", "event_data": "segment", "SegmentOptions": "segment",
+    "segment": "segmentation", "event_data": "segmentation", "SegmentOptions": "segmentation",
     "ProcessModel": "models", "STRUCTURES": "models", "PARAMETERS": "models",
-    "simulate": "simulate",
+    "simulate": "simulation",
     "identify_event": "api", "REGISTRY": "methods",
     "RecordResult": "results", "RunResult": "results", "load_results": "results",
     "UserError": "errors", "ExitCode": "errors",

@@ -1,7 +1,7 @@
 """Convenience entry points of the public API (``pipeline.load``, ``pipeline.identify``).
 
 Thin wrappers over the one analysis path: :func:`pipeline.io.load_record` and
-:func:`pipeline.analyse.analyse`.
+:func:`pipeline.analysis.analyse`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from .analyse import AnalysisOptions, analyse
+from .analysis import AnalysisOptions, analyse
 from .config import DataConfig
 from .io import load_record
 from .methods import identify as identify_event

@@ -11,14 +11,14 @@ linear in the gain, the output offset and the initial state (the separable form 
 * :func:`forced_response` ``x`` - the response from rest to the held input ``u - u_ref``
   (zero-order hold, exact): ``x[k] = sum_j h[k - j] du[j]`` with the exact ZOH pulse response
   ``h[k] = S(k dt - delay) - S((k-1) dt - delay)`` (the same definition as
-  :func:`pipeline.simulate.pulse_response`). For a rational model with at most two poles the
+  :func:`pipeline.simulation.pulse_response`). For a rational model with at most two poles the
   pulse response obeys the recursion of the discrete poles ``z_i = exp(s_i dt)`` once the
   dead time has passed, so ``h`` is an IIR filter whose numerator is the exactly computed
   head of ``h`` convolved with the pole polynomial: exact for *fractional* delays too, and
   O(n) (this is the modified z-transform; Franklin, Powell, Workman, Digital Control of
   Dynamic Systems, 3rd ed., sec. 4.3.4). Other models (long equal-lag chains, non-integer
   n) use the FFT convolution, irregular grids the superposition of
-  :func:`pipeline.simulate.simulate`.
+  :func:`pipeline.simulation.simulate`.
 * :func:`free_basis` ``b_j`` - the free response from an unknown state: the response after
   the window start to unknown input pulses on ``[-tau_j, 0)`` before it,
   ``b_j(t') = S(t' + tau_j) - S(t')``, with ``tau_j`` spread over the model's time scale.
@@ -41,7 +41,7 @@ from scipy import signal
 
 from .models import PARAMETERS, STRUCTURES, ProcessModel, Structure
 from .record import infer_sample_time
-from .simulate import simulate
+from .simulation import simulate
 
 #: Poles of a rational model up to this order are filtered recursively (beyond it an
 #: expanded polynomial with poles near 1 loses precision, see pipeline.simulate).
@@ -194,7 +194,7 @@ def offset_response(structure: str, p: dict[str, float], t_rel: np.ndarray) -> n
 
 
 def model_response(model: ProcessModel, t, u, u0: float, y0: float) -> np.ndarray:
-    """:func:`pipeline.simulate.simulate` (same definition: from rest at ``(u0, y0)``,
+    """:func:`pipeline.simulation.simulate` (same definition: from rest at ``(u0, y0)``,
     input held) through :func:`forced_response`: closed-form discrete poles instead of a
     matrix exponential per call."""
     t = np.asarray(t, dtype=np.float64)

@@ -161,13 +161,17 @@ def identify(
         "--method", help="method ids, 'all' (default): --method a,b or --method a --method b")]
     = None,
     events: Annotated[str, typer.Option(help="identification events: 'all' or 0,2")] = "0",
+    consistency: Annotated[bool | None, typer.Option(
+        "--consistency/--no-consistency",
+        help="identify every step on its own and compare (default: with 3 steps or more)")]
+    = None,
     as_json: Annotated[bool, typer.Option("--json", help="print results JSON to stdout")]
     = False,
     out_dir: Annotated[Path | None, typer.Option("--out", help="also write reports here")]
     = None,
 ) -> None:
     """Identify models from one log and print them ranked (or as JSON)."""
-    from .analyse import AnalysisOptions
+    from .analysis import AnalysisOptions
     from .results import results_json
     from .run import identify_file
 
@@ -175,7 +179,8 @@ def identify(
         raise UserError(f"unexpected argument {ctx.args[0]!r}: give several methods or events "
                         "with commas (--method first_order,smith, --events 0,2) or repeat "
                         "the option (--method first_order --method smith)")
-    options = AnalysisOptions(events=_events_arg(events), methods=_methods_arg(method))
+    options = AnalysisOptions(events=_events_arg(events), methods=_methods_arg(method),
+                              consistency=consistency)
     run_ = identify_file(file, data, options, out_dir=out_dir)
     if as_json:
         sys.stdout.write(results_json(run_.to_doc()))
@@ -223,7 +228,7 @@ def segment(
     from .io import load_record
     from .report.tables import fmt, response_text
     from .results import event_doc
-    from .segment import segment as find_events
+    from .segmentation import segment as find_events
 
     record = load_record(file, data)
     events = find_events(record)

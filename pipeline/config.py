@@ -68,6 +68,9 @@ class RunConfig(_Strict):
     segmentation: SegmentationConfig = SegmentationConfig()
     identification: IdentificationConfig = IdentificationConfig()
     methods: list[str] | Literal["all"] = "all"
+    consistency: bool | None = Field(
+        None, description="identify every step on its own and compare them (default: with "
+                          "three steps or more)")
     output: str | None = None
     report: ReportConfig = ReportConfig()
     base_dir: str = Field(".", exclude=True)

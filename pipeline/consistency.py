@@ -14,7 +14,11 @@ constant with 95 % intervals, at its operating point and time). Then:
   its curvature is significant (an F test at 0.1 %). DaISy's lamp heats with the power
   ~ u^2: its step-level asymptotes follow y = a + b u^2.
 
-Pure functions; the estimates come from :mod:`pipeline.analyse`.
+:func:`event_estimates` identifies each step on its own: its dominant time constant by
+least squares with the record's recommended structure (first order when that has no time
+constant to compare; the state carried where the output was still moving,
+:func:`pipeline.joint.event_fit`), its gain by :func:`step_gains` (one gain per step at the
+recommended dynamics, the steps' responses superposed); the rest are pure statistics.
 """
 
 from __future__ import annotations
@@ -25,12 +29,27 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from .fit import Flag
+from .events import Event, EventData
+from .fit import Fit, Flag
+from .joint import event_fit
+from .methods import identify
+from .models import STRUCTURES, ProcessModel
+from .record import Record
+from .refine import RefineOptions
+from .simulation import simulate
+from .uncertainty import covariance, t_quantile, variance_factor
 
 #: The extreme per-event gains must differ by more than this share of their mean.
 GAIN_SPREAD = 0.10
 #: Significance of the consistency tests (a false alarm in one log of a thousand).
 ALPHA = 1e-3
+#: The per-event structure when the recommended one has no lag to compare (its gain and
+#: time constant are what the report compares).
+FALLBACK = "first_order"
+#: The time constants a dominant one is chosen from (the largest).
+LAGS = ("T", "T1", "T2")
+#: With this many step events or more, consistency is checked unless switched off.
+AUTO_MIN_STEPS = 3
 
 
 @dataclass(frozen=True)
@@ -48,7 +67,7 @@ class EventEstimate:
     K_ci: tuple[float, float]
     T: float
     T_ci: tuple[float, float]
-    method: str = ""
+    state: str = ""  # how the initial state was treated (rest, carried, estimated)
 
     @property
     def K_se(self) -> float:
@@ -71,6 +90,115 @@ class StaticMap:
     rms_quadratic: float
     nonlinear: bool
     p_curvature: float
+
+
+@dataclass(frozen=True)
+class Consistency:
+    """Each step on its own, and what they say together."""
+
+    estimates: tuple[EventEstimate, ...]
+    static_map: StaticMap | None
+
+
+def wanted(events: list[Event], setting: bool | None) -> bool:
+    """``setting``, or by default: with :data:`AUTO_MIN_STEPS` step events or more."""
+    if setting is not None:
+        return setting
+    return sum(e.kind == "step" for e in events) >= AUTO_MIN_STEPS
+
+
+def per_event_structure(structure: str | None) -> str:
+    """The structure each step is identified with: the recommended one when it has a lag
+    (T, T1, T2) and settles, else first order."""
+    if structure and structure in STRUCTURES and not STRUCTURES[structure].integrating \
+            and any(p in STRUCTURES[structure].params for p in LAGS):
+        return structure
+    return FALLBACK
+
+
+def event_estimates(record: Record, events: list[Event], states: list[str],
+                    structure: str = FALLBACK, *, fits: list[Fit] = (),
+                    reference: ProcessModel | None = None,
+                    options: RefineOptions | None = None) -> list[EventEstimate]:
+    """Every settling step event on its own: its dominant time constant (with interval)
+    from the refinement of ``structure`` on that event (reusing a fit the analysis made),
+    its gain (with interval) from :func:`step_gains` at the dynamics of ``reference`` (the
+    recommended model; else of the first event's own fit)."""
+    method = f"lsq_{structure}"
+    own: dict[int, Fit] = {}
+    for ev in events:
+        if ev.kind != "step" or ev.response != "settling" or ev.i_end - ev.i_start < 10:
+            continue
+        fit = next((f for f in fits if f.method == method and f.event == ev.index
+                    and not f.events), None)
+        if fit is None:
+            data = EventData.from_event(record, ev)
+            starts = [f.model for f in fits if f.ok and f.event == ev.index]
+            starts += [g.model for m in ("first_order", "viteckova1")
+                       if (g := identify(data, m)).ok]
+            fit = event_fit(record, events, ev.index, method, models=starts, states=states,
+                            options=options)
+        if fit.ok:
+            own[ev.index] = fit
+    if not own:
+        return []
+    gains = step_gains(record, events, reference or next(iter(own.values())).model)
+    out = []
+    for i, fit in own.items():
+        lags = [p for p in LAGS if p in fit.model.params and fit.ci95.get(p)]
+        if i not in gains or not lags:
+            continue
+        name = max(lags, key=lambda p: float(fit.model.params[p]))
+        if None in fit.ci95[name]:
+            continue
+        K, K_ci, y_before, y_after = gains[i]
+        ev = events[i]
+        out.append(EventEstimate(i, ev.t0, ev.u0, ev.u_ss, y_before, y_after, K, K_ci,
+                                 float(fit.model.params[name]), tuple(fit.ci95[name]),
+                                 str(fit.diagnostics.get("initial_state", ""))))
+    return out
+
+
+def step_gains(record: Record, events: list[Event], shape: ProcessModel
+               ) -> dict[int, tuple[float, tuple[float, float], float, float]]:
+    """Each step's own gain at shared dynamics: ``{event: (K, 95 % interval, asymptote
+    before, asymptote after)}``.
+
+    The input is split into its events' increments, ``u = u_start + sum_j d_j`` (``d_j``
+    what event j adds, held after its window), and the output regressed on the unit-gain
+    responses of ``shape`` to each: ``y = c + sum_j K_j (G * d_j)``, linear in the gains.
+    Every step keeps its own gain while its response goes on under the later ones, which
+    is exact for a static nonlinearity before linear dynamics (a Hammerstein plant: a
+    lamp's power ~ u^2 heating a plate). Intervals from the residuals with their
+    coloured-noise factor (:func:`pipeline.uncertainty.covariance`)."""
+    t, u, y = record.t, record.u, record.y
+    unit = ProcessModel(shape.structure, {**shape.params, "K": 1.0})
+    starts = [e.i_start for e in events] + [t.size]
+    ref = record.initial_input if record.initial_input is not None and starts[0] == 0 \
+        else float(u[max(starts[0] - 1, 0)])
+    cols, delta = [], []
+    for j in range(len(events)):
+        a, b = starts[j], starts[j + 1]
+        before = ref if j == 0 else float(u[a - 1])
+        d = np.zeros(t.size)
+        d[a:b] = u[a:b] - before
+        d[b:] = d[b - 1] if b > a else 0.0
+        cols.append(simulate(unit, t, d, 0.0, 0.0))
+        delta.append(float(d[-1]))
+    X = np.column_stack([np.ones(t.size), *cols])
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    e = y - X @ coef
+    f = variance_factor(e)
+    cov = covariance(X, e, X.shape[1], f)
+    q = t_quantile(max(t.size / f - X.shape[1], 1.0))
+    out, level = {}, float(coef[0])
+    for j, ev in enumerate(events):
+        K, se = float(coef[j + 1]), float(math.sqrt(max(cov[j + 1, j + 1], 0.0)))
+        after = level + K * delta[j]
+        if ev.kind == "step" and delta[j] != 0:
+            out[ev.index] = (K, (K - q * se, K + q * se), level, after)
+        level = after
+    return out
 
 
 def gain_flags(estimates: list[EventEstimate], unit: str = "") -> list[Flag]:

@@ -6,7 +6,7 @@ of the record; ``i_base`` is the first sample of the settled stretch before ``t0
 mean is ``y0``.
 
 An :class:`EventData` is the self-contained slice a method works on: the arrays from
-``i_base`` to ``i_end`` and the operating-point values. :func:`pipeline.segment.event_data`
+``i_base`` to ``i_end`` and the operating-point values. :func:`pipeline.segmentation.event_data`
 builds one from plain numpy arrays, so every method runs without the CLI.
 """
 
@@ -51,7 +51,7 @@ class EventData:
     ``t, u, y`` cover the settled baseline before ``t0`` and the event window after it.
     ``response``, ``slope`` and ``drift`` say whether the output settles, ramps or shifts
     its level, and how fast it moves at the end of the window and before ``t0``
-    (:mod:`pipeline.segment` step 6).
+    (:mod:`pipeline.segmentation` step 6).
     """
 
     kind: str

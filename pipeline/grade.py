@@ -20,6 +20,7 @@ from dataclasses import replace
 import numpy as np
 from scipy.stats import spearmanr
 
+from .consistency import gain_flags
 from .events import Event
 from .fit import Fit, Flag
 from .models import PARAMETERS
@@ -45,6 +46,8 @@ FLAGS: dict[str, str] = {
                              "a step test",
     "gain_inconsistent": "the events' gains disagree beyond their uncertainty: the plant is "
                          "not linear (or not time-invariant) over the log",
+    "validation_misfit": "the model misses the events it did not see by much more than the "
+                         "noise: the plant does not behave the same way over the whole log",
     "direction_asymmetry": "steps up and steps down give different gains",
 }
 
@@ -117,6 +120,11 @@ def record_flags(result: RecordResult) -> tuple[Flag, ...]:
     cl = closed_loop_flag(result.record, result.events)
     if cl is not None:
         out.append(cl)
+    if result.consistency is not None:
+        units = result.record.units
+        unit = f"{units['output']}/{units['input']}" if units.get("output") and \
+            units.get("input") else ""
+        out.extend(gain_flags(list(result.consistency.estimates), unit))
     return tuple(out)
 
 
@@ -158,7 +166,29 @@ def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
     ev = result.events[fit.event]
     checks = (_unsettled, _baseline, _below_sample_time, _delay_clipped, _fit_quality,
               _misfit, _wide_ci, _overshoot_in_noise, _undershoot_unmodelled)
-    return [f for check in checks if (f := check(fit, ev, rec)) is not None]
+    out = [f for check in checks if (f := check(fit, ev, rec)) is not None]
+    held_out = [result.events[i] for i in result.validation_events]
+    vm = _validation_misfit(fit, held_out, rec)
+    return out + ([vm] if vm is not None else [])
+
+
+def _validation_misfit(fit: Fit, held_out: list[Event], rec: Record) -> Flag | None:
+    """The validation RMS error beyond :data:`MISFIT_RATIO` times the validation events'
+    noise: a model right for its own event that does not carry to the others (an
+    operating-point-dependent gain or dynamics, a drift)."""
+    mse = fit.metrics.get("mse_validation", math.nan)
+    noise = float(np.mean([e.noise for e in held_out])) if held_out else 0.0
+    if not math.isfinite(mse) or noise <= 0:
+        return None
+    ratio = math.sqrt(mse) / noise
+    if ratio <= MISFIT_RATIO:
+        return None
+    return Flag("validation_misfit", f"On the events it did not see the model misses the "
+                f"data by {ratio:.1f} times the noise (RMS {math.sqrt(mse):.3g}"
+                f"{_unit_of_output(rec)}): the plant does not behave the same way over the "
+                "whole log (a gain or dynamics that change with the operating point, or a "
+                "drift); trust it near the conditions it was identified at.",
+                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": noise})
 
 
 def _unit(name: str, rec: Record, fit: Fit) -> str:

@@ -27,8 +27,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .events import Event
+from .events import Event, EventData
 from .fit import Fit
+from .methods import REGISTRY, identify
 from .models import ProcessModel
 from .record import Record
 from .refine import Refinement, RefineOptions, refine
@@ -136,3 +137,19 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
     except Exception as exc:  # a bug in one fit must not lose the record's other fits
         return Fit(method, ident[0], "failed", f"internal error: {type(exc).__name__}: {exc}",
                    events=many)
+
+
+def event_fit(record: Record, events: Sequence[Event], i: int, method: str, *,
+              models: Sequence[ProcessModel], states: Sequence[str],
+              options: RefineOptions | None = None) -> Fit:
+    """Refinement ``method`` on event ``i`` alone: with the state carried from an earlier
+    event that started at rest (:func:`span_fit` over just this event) when the output was
+    still moving at t0 and such an event exists, else on the event's own window with the
+    state at rest or estimated (:func:`pipeline.methods.identify`)."""
+    ev = events[i]
+    if states[i] != "rest" and carry_source(list(states), i) is not None \
+            and REGISTRY[method].event == ev.kind:
+        return span_fit(record, events, [i], method, REGISTRY[method].structures[0],
+                        models=models, states=states, options=options)
+    return identify(EventData.from_event(record, ev), method, models=models, state=states[i],
+                    options=options)

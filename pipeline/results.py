@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from pydantic import ValidationError
 
+from .consistency import Consistency
 from .errors import UserError
 from .events import Event
 from .files import read_text, write_atomic
@@ -26,6 +27,8 @@ from .record import Record
 from .schema import (
     READABLE_VERSIONS,
     BestDoc,
+    ConsistencyDoc,
+    EstimateDoc,
     EventDoc,
     FitDoc,
     FlagDoc,
@@ -33,6 +36,7 @@ from .schema import (
     RecommendedDoc,
     RecordDoc,
     ResultsDoc,
+    StaticMapDoc,
     TransferFunctionDoc,
 )
 from .version import __version__
@@ -64,6 +68,7 @@ class RecordResult:
     error: str | None = None
     recommendation: Recommendation | None = None
     flags: tuple[Flag, ...] = ()  # findings about the whole log (grading)
+    consistency: Consistency | None = None  # each step on its own (pipeline.consistency)
 
     @property
     def ok(self) -> bool:
@@ -118,6 +123,7 @@ class RecordResult:
             best=BestDoc(method=best.method, event=best.event) if best else None,
             recommended=self._recommended_doc(),
             flags=[flag_doc(x) for x in self.flags],
+            consistency=consistency_doc(self.consistency),
             errors=[self.error] if self.error else [],
         )
 
@@ -167,6 +173,24 @@ def event_doc(e: Event, role: str) -> EventDoc:
         area=e.area if impulse else None, duration=e.duration if impulse else None,
         settled=e.settled, noise=_finite(e.noise), response=e.response,
         slope=_finite(e.slope), drift=_finite(e.drift), role=role)
+
+
+def consistency_doc(c: Consistency | None) -> ConsistencyDoc | None:
+    if c is None:
+        return None
+    m = c.static_map
+    return ConsistencyDoc(
+        estimates=[EstimateDoc(event=e.index, t0=e.t0, u0=e.u0, u1=e.u1, y0=e.y0,
+                               y_inf=e.y_inf, K=e.K, K_ci95=_pair(e.K_ci), T=e.T,
+                               T_ci95=_pair(e.T_ci), state=e.state) for e in c.estimates],
+        static_map=None if m is None else StaticMapDoc(
+            u=list(m.u), y=list(m.y), line=list(m.line), quadratic=list(m.quadratic),
+            rms_line=m.rms_line, rms_quadratic=m.rms_quadratic, nonlinear=m.nonlinear,
+            p_curvature=m.p_curvature))
+
+
+def _pair(ci) -> tuple[float | None, float | None]:
+    return (_finite(ci[0]), _finite(ci[1]))
 
 
 def flag_doc(f: Flag) -> FlagDoc:

@@ -8,7 +8,7 @@ run's outputs (results.json, reports, baseline gate, history, JUnit).
   in, a :class:`~pipeline.results.RecordResult` out; it never raises for a bad record
   (the failure travels in the result).
 
-Both commands end in :func:`pipeline.analyse.analyse` with options built by
+Both commands end in :func:`pipeline.analysis.analyse` with options built by
 :func:`analysis_options`, so they give the same fits for the same file.
 """
 
@@ -20,13 +20,13 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
-from .analyse import AnalysisOptions, analyse
+from .analysis import AnalysisOptions, analyse
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
 from .io import SUFFIXES, load_record
 from .io.options import check_file
 from .results import RecordResult, RunResult
-from .segment import SegmentOptions
+from .segmentation import SegmentOptions
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,7 @@ def analysis_options(cfg: RunConfig) -> AnalysisOptions:
         events=events if events == "all" else tuple(events),
         methods=cfg.methods if cfg.methods == "all" else tuple(cfg.methods),
         refine=cfg.identification.refine_options(),
+        consistency=cfg.consistency,
     )
 
 

@@ -132,6 +132,44 @@ class RecommendedDoc(_Doc):
     reason: str = ""
 
 
+class EstimateDoc(_Doc):
+    """One step identified on its own (first order by least squares): its gain and time
+    constant with 95 % intervals, its input levels and the output's asymptotes."""
+
+    event: int
+    t0: float
+    u0: float
+    u1: float
+    y0: float
+    y_inf: float
+    K: float
+    K_ci95: tuple[float | None, float | None]
+    T: float
+    T_ci95: tuple[float | None, float | None]
+    state: str = ""
+
+
+class StaticMapDoc(_Doc):
+    """Settled output against input level: the points, a line ``[a, b]`` (y = a + b u) and a
+    quadratic ``[a, b, c]``; ``nonlinear`` when the quadratic is clearly better."""
+
+    u: list[float]
+    y: list[float]
+    line: list[float]
+    quadratic: list[float]
+    rms_line: float
+    rms_quadratic: float
+    nonlinear: bool
+    p_curvature: float
+
+
+class ConsistencyDoc(_Doc):
+    """Each step on its own, and the static map they trace."""
+
+    estimates: list[EstimateDoc] = Field(default_factory=list)
+    static_map: StaticMapDoc | None = None
+
+
 class RecordDoc(_Doc):
     """One log: what was loaded, the events found, every fit, and the recommendation;
     ``flags`` are findings about the whole log (they are on every fit too)."""
@@ -151,6 +189,7 @@ class RecordDoc(_Doc):
     best: BestDoc | None = None
     recommended: RecommendedDoc | None = None
     flags: list[FlagDoc] = Field(default_factory=list)
+    consistency: ConsistencyDoc | None = None
     errors: list[str] = Field(default_factory=list)
 
 

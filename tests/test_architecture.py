@@ -122,3 +122,20 @@ def test_schema_and_version_commands():
     assert {"schema_version", "records"} <= set(schema["properties"])
     r = runner.invoke(app, ["--version"])
     assert r.exit_code == 0 and r.output.startswith("pipeline ")
+
+
+def test_public_api_names_stay_functions():
+    """``pipeline.analyse`` etc. are the functions, also after their modules were imported
+    (a submodule named like its function would shadow it on the package)."""
+    import importlib
+
+    import pipeline
+
+    for mod in PKG.rglob("*.py"):
+        if mod.name != "__main__.py":  # that one runs the command line
+            importlib.import_module(_module_name(mod))
+    for name in ("analyse", "identify", "load", "segment", "simulate", "run_config",
+                 "event_data", "identify_file"):
+        assert callable(getattr(pipeline, name)) and not isinstance(
+            getattr(pipeline, name), type(pipeline)), name
+    assert set(pipeline.__all__) <= set(dir(pipeline))

@@ -28,7 +28,7 @@ from pipeline.methods import identify
 from pipeline.record import Record
 from pipeline.report.junit import junit_xml, write_junit
 from pipeline.results import as_doc, event_doc, fit_doc, load_results
-from pipeline.segment import event_data, segment
+from pipeline.segmentation import event_data, segment
 from pipeline.synth.logs import LogPlan, log_record, plan_logs
 from pipeline.validate import score
 

@@ -1,5 +1,5 @@
 """One synthetic log in every supported form gives the same events and first-order
-parameters as the plain CSV, through the real analysis path (pipeline.analyse.analyse)."""
+parameters as the plain CSV, through the real analysis path (pipeline.analysis.analyse)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.analyse import AnalysisOptions, analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.io import DataConfig, load_record
 from tests.forms import FORMS, synthetic_log
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.analyse import AnalysisOptions, analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.fit import Flag
 from pipeline.grade import FLAGS, verdict_of
 from pipeline.models import ProcessModel

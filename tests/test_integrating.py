@@ -4,12 +4,12 @@ their domains, and the self-regulating methods kept off ramps and undershoots.""
 import numpy as np
 import pytest
 
-from pipeline.analyse import analyse
+from pipeline.analysis import analyse
 from pipeline.events import EventData
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import STRUCTURES, ProcessModel
 from pipeline.record import make_record
-from pipeline.segment import segment
+from pipeline.segmentation import segment
 from pipeline.synth import pulse, response, staircase
 
 INT_LAG = ProcessModel("integrator_lag", {"K": 0.5, "T": 4.0, "delay": 1.0})

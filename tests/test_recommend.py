@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pipeline.analyse import AnalysisOptions, analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.models import ProcessModel
 from pipeline.recommend import Candidate, criterion, held_out, paired_difference, recommend
 from pipeline.synth import step_record

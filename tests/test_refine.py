@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.analyse import AnalysisOptions, analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.basis import forced_response, free_basis, model_response
 from pipeline.config import config_from_dict
 from pipeline.methods import REGISTRY, identify, method_ids, select_methods
@@ -17,8 +17,8 @@ from pipeline.record import make_record
 from pipeline.refine import RefineOptions, refine
 from pipeline.results import RunResult, parse_results, results_json
 from pipeline.run import analysis_options
-from pipeline.segment import event_data
-from pipeline.simulate import simulate
+from pipeline.segmentation import event_data
+from pipeline.simulation import simulate
 from pipeline.synth import response, staircase, step_record
 
 FOPDT = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 2.0})

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.analyse import AnalysisOptions, analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.config import load_config
 from pipeline.io import load_record
 from pipeline.methods import REGISTRY

@@ -23,11 +23,11 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from pipeline.analyse import analyse
+from pipeline.analysis import analyse
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import ProcessModel
-from pipeline.segment import event_data
-from pipeline.simulate import simulate
+from pipeline.segmentation import event_data
+from pipeline.simulation import simulate
 from pipeline.synth import staircase, step_record
 
 # name -> truth, time scale (s), sample time (s), the parameters the issue bounds

@@ -5,7 +5,7 @@ import pytest
 
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
-from pipeline.segment import SegmentOptions, segment
+from pipeline.segmentation import SegmentOptions, segment
 from pipeline.synth import pulse, response, staircase
 
 FO = ProcessModel("first_order", {"K": 2.0, "T": 5.0})

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pipeline.models import ProcessModel
-from pipeline.simulate import simulate
+from pipeline.simulation import simulate
 
 MODELS = [
     ProcessModel("first_order", {"K": 2.5, "T": 7.0}),

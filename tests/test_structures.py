@@ -12,7 +12,7 @@ from pipeline.baseline import param_scale, relative_change, step_response_distan
 from pipeline.history import SCHEMA
 from pipeline.models import PARAMETERS, STRUCTURES, ProcessModel
 from pipeline.report.tables import params_text
-from pipeline.simulate import _response, pulse_response, simulate
+from pipeline.simulation import _response, pulse_response, simulate
 
 NEW = {
     "integrator": {"K": 0.5},

@@ -24,7 +24,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
 from ..signal import crossing_time, smooth
-from ..simulate import simulate
+from ..simulation import simulate
 from .base import clip_delay
 from .registry import MethodResult, register
 from .second_order import check_oscillation, oscillation, zeta_from_overshoot

@@ -3,7 +3,7 @@ pulse (Åström & Hägglund, "Advanced PID Control", ISA 2006: the integrating m
 ``K e^{-Ls}/s`` read off a step response's ramp, and the integrator with a lag).
 
 Both methods read the event's response ``r = y - y0 - drift (t - t0)`` (deviation from
-the baseline line; :mod:`pipeline.segment` step 6), for ``K e^{-L s}/(s (T s + 1))``:
+the baseline line; :mod:`pipeline.segmentation` step 6), for ``K e^{-L s}/(s (T s + 1))``:
 
     step du:  r(tau) = K du [(tau - L) - T (1 - e^{-(tau - L)/T})]   (tau > L),
 
@@ -29,7 +29,7 @@ from ..events import EventData
 from ..models import ProcessModel
 from ..responses import integrator_lag_step
 from ..signal import smooth
-from ..simulate import simulate
+from ..simulation import simulate
 from .registry import MethodResult, register
 
 

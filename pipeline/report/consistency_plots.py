@@ -9,6 +9,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..consistency import EventEstimate, StaticMap
+from ..record import in_time_unit
 from .plots import DPI, png_of
 
 
@@ -18,6 +19,18 @@ def _errorbar(ax, x, v, ci, colour, label=None):
     v = np.asarray(v, dtype=float)
     ax.errorbar(x, v, yerr=[np.maximum(v - lo, 0), np.maximum(hi - v, 0)], fmt="o",
                 color=colour, capsize=3, ms=5, label=label)
+
+
+def _focus(ax, vals) -> None:
+    """Keep the estimates in view when some intervals are enormous (the bars run off the
+    axes instead of squashing the points to a line)."""
+    v = np.asarray(vals, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return
+    lo, hi = float(v.min()), float(v.max())
+    pad = max(hi - lo, 0.25 * max(abs(lo), abs(hi)), 1e-12)
+    ax.set_ylim(lo - pad, hi + pad)
 
 
 def consistency_figure(est: list[EventEstimate], units: dict[str, str], *,
@@ -30,10 +43,13 @@ def consistency_figure(est: list[EventEstimate], units: dict[str, str], *,
     t_unit = units.get("time", "s")
     k_unit = f"{units.get('output', '-')}/{units.get('input', '-')}" if units else ""
     level = [0.5 * (e.u0 + e.u1) for e in est]
-    t0 = [e.t0 for e in est]
+    tu = units.get("time")
+    t0 = [in_time_unit(e.t0, tu) for e in est]
+    Ts = [in_time_unit(e.T, tu) for e in est]
+    T_ci = [(in_time_unit(e.T_ci[0], tu), in_time_unit(e.T_ci[1], tu)) for e in est]
     for row, (name, vals, cis, unit) in enumerate((
             ("gain K", [e.K for e in est], [e.K_ci for e in est], k_unit),
-            ("dominant time constant", [e.T for e in est], [e.T_ci for e in est], t_unit))):
+            ("dominant time constant", Ts, T_ci, t_unit))):
         for col, (x, xlabel) in enumerate(((level, "input level (mid-step)" + (
                 f" [{units['input']}]" if units.get("input") else "")),
                 (t0, f"step time [{t_unit}]"))):
@@ -50,6 +66,7 @@ def consistency_figure(est: list[EventEstimate], units: dict[str, str], *,
             ax.set_xlabel(xlabel)
             ax.set_ylabel(f"{name} [{unit}]" if unit else name)
             ax.grid(alpha=0.3)
+            _focus(ax, vals)
     axes[0][0].legend(fontsize=8)
     fig.suptitle("Each step identified on its own (95 % intervals)")
     fig.tight_layout()

@@ -13,11 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..consistency import static_map_note
 from ..record import in_time_unit
 from ..results import RecordResult
 from ..validate import event_simulation, validation_simulation
 from . import plots
+from .consistency_plots import consistency_figure, static_map_figure
 from .tables import (
+    consistency_table,
     events_table,
     fmt,
     not_ok_rows,
@@ -80,9 +83,26 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     if res.events and mode != "none":
         ctx["overview"] = add(f"{anchor}_overview", "Record with events",
                               plots.overview(rec, res.events, res.roles, dpi=dpi))
+    ctx["consistency"] = _consistency_context(res, mode, add, anchor, dpi)
     for i in res.identification_events:
         ctx["ident"].append(_ident_context(res, i, mode, add, anchor, dpi))
     return ctx, files
+
+
+def _consistency_context(res: RecordResult, mode: str, add, anchor: str, dpi: int
+                         ) -> dict | None:
+    table = consistency_table(res)
+    if table is None:
+        return None
+    rec, c = res.record, res.consistency
+    out = {"table": table, "note": static_map_note(c.static_map, rec.units), "figures": []}
+    if mode == "full":
+        out["figures"].append(add(f"{anchor}_consistency", "Each step on its own",
+                                  consistency_figure(list(c.estimates), rec.units, dpi=dpi)))
+        if c.static_map is not None:
+            out["figures"].append(add(f"{anchor}_static_map", "Static map",
+                                      static_map_figure(c.static_map, rec.units, dpi=dpi)))
+    return out
 
 
 def _marks(diag: dict) -> list[tuple[float, float, str]]:

@@ -247,3 +247,23 @@ def recommended_box(res: RecordResult) -> dict | None:
 def not_ok_rows(res: RecordResult, event: int) -> list[dict]:
     return [{"method": f.method, "status": f.status, "reason": f.reason}
             for f in res.fits if f.event == event and not f.ok]
+
+
+def consistency_table(res: RecordResult) -> Table | None:
+    """Each step on its own: levels, gain and dominant time constant with intervals."""
+    c = res.consistency
+    if c is None or not c.estimates:
+        return None
+    rec = res.record
+    tu = rec.units.get("time") if rec else None
+    k_unit = unit_of("K", rec, "first_order")
+    t = Table(["event", f"t0 [{tu or 's'}]", "input", "K" + (f" [{k_unit}]" if k_unit else ""),
+               f"T (dominant) [{tu or 's'}]", "initial state"])
+    for e in c.estimates:
+        half_k = (e.K_ci[1] - e.K_ci[0]) / 2
+        T, half_t = in_time_unit(e.T, tu), in_time_unit((e.T_ci[1] - e.T_ci[0]) / 2, tu)
+        t.rows.append([Cell(str(e.index), "num"), Cell(fmt(in_time_unit(e.t0, tu)), "num"),
+                       Cell(f"{fmt(e.u0)} -> {fmt(e.u1)}"),
+                       Cell(f"{fmt(e.K)} ± {fmt(half_k, 2)}", "num"),
+                       Cell(f"{fmt(T)} ± {fmt(half_t, 2)}", "num"), Cell(e.state)])
+    return t

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..models import ProcessModel
 from ..record import Record, make_record
-from ..simulate import simulate
+from ..simulation import simulate
 
 
 def staircase(t: np.ndarray, u0: float, changes: Sequence[tuple[float, float]]) -> np.ndarray:

@@ -12,25 +12,28 @@ identification events each refinement also runs once over all of them (one model
 state carried through the record), and with ``events: all`` leave-one-event-out
 cross-validation gives its held-out error (``mse_cross_validation``; a one-event model's
 is its error on the other events). Every ok fit gets an information criterion on its own
-event (``aic``), and the record its recommended model (:func:`pipeline.recommend.recommend`).
+event (``aic``). With three steps or more every step is also identified on its own
+(:mod:`pipeline.consistency`); grading flags what disagrees, and the record gets its
+recommended model (:func:`pipeline.recommend.recommend`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from . import consistency
 from .events import EventData
 from .fit import Fit
 from .grade import grade
-from .joint import span_fit
+from .joint import event_fit, span_fit
 from .methods import REGISTRY, identify, select_methods
 from .metrics import mse
 from .recommend import information_criteria, recommend
 from .record import Record
 from .refine import RefineOptions
-from .refine_record import carry_source, event_states
+from .refine_record import event_states
 from .results import RecordResult
-from .segment import SegmentOptions, segment
+from .segmentation import SegmentOptions, segment
 from .validate import heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
@@ -44,12 +47,15 @@ class AnalysisOptions:
     ``events``: the identification events (indices, or "all"); the others validate.
     ``methods``: "all" (every method for each event's kind) or a list of ids.
     ``refine``: options of the least-squares refinements (starts, bootstrap).
+    ``consistency``: identify every step on its own and compare them
+    (:mod:`pipeline.consistency`); None: when there are three steps or more.
     """
 
     segmentation: SegmentOptions = field(default_factory=SegmentOptions)
     events: tuple[int, ...] | str = (0,)
     methods: tuple[str, ...] | str = "all"
     refine: RefineOptions = field(default_factory=RefineOptions)
+    consistency: bool | None = None  # each step on its own (None: with 3 steps or more)
 
 
 def analyse(record: Record, options: AnalysisOptions | None = None, *,
@@ -85,8 +91,18 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     if opt.events == "all" and len(ident) > 1:
         fits = [_held_out(f, record, events, ident) for f in fits]
     fits = _with_information_criteria(record, events, fits)
-    result = grade(replace(base, roles=roles, fits=fits))
-    return replace(result, recommendation=recommend(result))
+    result = replace(base, roles=roles, fits=fits)
+    recommendation = recommend(result)
+    cons = None
+    if consistency.wanted(events, opt.consistency):
+        chosen = result.fit(recommendation.method, recommendation.event) if recommendation \
+            else None
+        structure = consistency.per_event_structure(chosen.model.structure if chosen else None)
+        reference = chosen.model if chosen and chosen.model.structure == structure else None
+        est = consistency.event_estimates(record, events, states, structure, fits=fits,
+                                          reference=reference, options=opt.refine)
+        cons = consistency.Consistency(tuple(est), consistency.static_map(est))
+    return replace(grade(replace(result, consistency=cons)), recommendation=recommendation)
 
 
 def _event_fits(record: Record, events, i: int, validation: list[int], states: list[str],
@@ -95,7 +111,6 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
     carried from an earlier event that was, or estimated: :mod:`pipeline.joint`)."""
     ev = events[i]
     data = EventData.from_event(record, ev)
-    carried = states[i] != "rest" and carry_source(states, i) is not None
     selected = select_methods(opt.methods, ev.kind)
     short = ev.i_end - ev.i_start < MIN_WINDOW_SAMPLES
     out: list[Fit] = []
@@ -106,13 +121,9 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
                            f"{ev.i_end - ev.i_start} samples after t0, at least "
                            f"{MIN_WINDOW_SAMPLES} are needed"))
             continue
-        models = [f.model for f in out if f.ok]
-        refinement = mid in REGISTRY and REGISTRY[mid].kind == "refinement"
-        if refinement and carried and REGISTRY[mid].event == ev.kind:
-            fit = span_fit(record, events, [i], mid, REGISTRY[mid].structures[0],
-                           models=models, states=states, options=opt.refine)
-        elif refinement:
-            fit = identify(data, mid, models=models, state=states[i], options=opt.refine)
+        if mid in REGISTRY and REGISTRY[mid].kind == "refinement":
+            fit = event_fit(record, events, i, mid, models=[f.model for f in out if f.ok],
+                            states=states, options=opt.refine)
         else:
             fit = identify(data, mid)
         if fit.ok:
