@@ -95,8 +95,8 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     recommendation = recommend(result)
     cons = None
     if consistency.wanted(events, opt.consistency):
-        chosen = result.fit(recommendation.method, recommendation.event) if recommendation \
-            else None
+        chosen = result.fit(recommendation.method, recommendation.event,
+                            recommendation.events) if recommendation else None
         structure = consistency.per_event_structure(chosen.model.structure if chosen else None)
         reference = chosen.model if chosen and chosen.model.structure == structure else None
         est = consistency.event_estimates(record, events, states, structure, fits=fits,

@@ -140,7 +140,7 @@ def _compare_record(name: str, cur: RecordDoc | None, base: RecordDoc, tol: Tole
 
 
 def _fits(record: RecordDoc) -> dict[tuple[int, str], FitDoc]:
-    return {(f.event, f.method): f for f in record.fits}
+    return {(f.event, f.label): f for f in record.fits}
 
 
 def _compare_fits(name: str, cur: RecordDoc, base: RecordDoc, tol: Tolerances

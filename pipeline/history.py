@@ -68,13 +68,13 @@ def history_rows(results: ResultsDoc, run_time: datetime | None) -> pl.DataFrame
         for fit in rec.fits:
             params = fit.params or {}
             metrics = fit.metrics.model_dump()
-            key = (fit.method, fit.event)
+            key = (fit.label, fit.event)
             rows.append({
-                **base, "event": fit.event, "method": fit.method, "status": fit.status,
+                **base, "event": fit.event, "method": fit.label, "status": fit.status,
                 "structure": fit.structure, "verdict": fit.verdict,
-                "best": rec.best is not None and key == (rec.best.method, rec.best.event),
+                "best": rec.best is not None and key == (rec.best.label, rec.best.event),
                 "recommended": rec.recommended is not None
-                and key == (rec.recommended.method, rec.recommended.event),
+                and key == (rec.recommended.label, rec.recommended.event),
                 **{p: _number(params.get(p)) for p in PARAMS},
                 **{m: _number(metrics.get(m)) for m in METRICS},
             })

@@ -24,6 +24,15 @@ FitStatus = Literal["ok", "not_applicable", "failed"]
 Verdict = Literal["ok", "warning", "unreliable"]
 
 
+def fit_label(method: str, event: int, events: list[int]) -> str:
+    """A fit's name within its record: the method, with the events of a joint fit
+    (``lsq_first_order[0,2]``), since a joint fit and the first event's own fit of the same
+    method are different fits."""
+    if not events or list(events) == [event]:
+        return method
+    return f"{method}[{','.join(str(e) for e in events)}]"
+
+
 class _Doc(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, ser_json_inf_nan="null")
 
@@ -83,6 +92,10 @@ class FitDoc(_Doc):
     flags: list[FlagDoc] = Field(default_factory=list)
     diagnostics: dict[str, Any] = Field(default_factory=dict)
 
+    @property
+    def label(self) -> str:
+        return fit_label(self.method, self.event, self.events)
+
 
 class EventDoc(_Doc):
     """One step or impulse found by segmentation, and the role it played. ``response``:
@@ -115,6 +128,11 @@ class BestDoc(_Doc):
 
     method: str
     event: int
+    events: list[int] = Field(default_factory=list)
+
+    @property
+    def label(self) -> str:
+        return fit_label(self.method, self.event, self.events)
 
 
 class RecommendedDoc(_Doc):
@@ -130,6 +148,10 @@ class RecommendedDoc(_Doc):
     verdict: Verdict | None = None
     flags: list[FlagDoc] = Field(default_factory=list)
     reason: str = ""
+
+    @property
+    def label(self) -> str:
+        return fit_label(self.method, self.event, self.events)
 
 
 class EstimateDoc(_Doc):

@@ -352,3 +352,25 @@ def test_a_version_1_document_is_read(tmp_path, baseline):
     doc = load_results(path)
     assert doc.schema_version == "1" and doc.records[0].fits[0].ci95 == {}
     assert compare(baseline, doc).ok
+
+
+def test_a_joint_fit_and_the_first_events_own_fit_are_different_fits():
+    """With events [0, 1] lsq_first_order runs on event 0 alone and on both; the gate and
+    the history keep them apart (``lsq_first_order`` and ``lsq_first_order[0,1]``)."""
+    from pipeline.analysis import AnalysisOptions, analyse
+    from pipeline.history import history_rows
+    from pipeline.results import RunResult
+
+    rec = log_record(plan_logs(1, seed=11)[0])
+    res = analyse(rec, AnalysisOptions(events=(0, 1), methods=("lsq_first_order",),
+                                       consistency=False))
+    doc = RunResult([res]).to_doc()
+    labels = sorted(f.label for f in doc.records[0].fits if f.event == 0)
+    assert labels == ["lsq_first_order", "lsq_first_order[0,1]"]
+    changed = doc.model_copy(deep=True)
+    joint = next(f for f in changed.records[0].fits if f.events)
+    joint.params["K"] *= 1.2
+    (f,) = [x for x in compare(changed, doc).regressions if x.parameter == "K"]
+    assert f.method == "lsq_first_order[0,1]"
+    rows = history_rows(doc, None)
+    assert {"lsq_first_order", "lsq_first_order[0,1]"} <= set(rows.get_column("method"))

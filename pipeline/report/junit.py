@@ -45,7 +45,7 @@ def junit_xml(current: ResultsDoc, comparison: Comparison | None = None) -> str:
             seen.add((name, None, None))
             continue
         for fit in rec.fits:
-            key = (name, fit.event, fit.method)
+            key = (name, fit.event, fit.label)
             seen.add(key)
             suite.append(_fit_case(name, fit, comparison.for_fit(*key)))
         if rec.recommended is not None:
@@ -93,7 +93,7 @@ def _case(record: str, name: str) -> ET.Element:
 
 
 def _fit_case(record: str, fit: FitDoc, findings: list[Finding]) -> ET.Element:
-    case = _case(record, f"event {fit.event} / {fit.method}")
+    case = _case(record, f"event {fit.event} / {fit.label}")
     for f in findings:
         _add_failure(case, f)
     status = fit.status
