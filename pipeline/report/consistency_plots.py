@@ -35,14 +35,15 @@ def _focus(ax, vals) -> None:
 
 def consistency_figure(est: list[EventEstimate], units: dict[str, str], *,
                        dpi: int = DPI) -> bytes:
-    """Four panels: K and T against the input level (mid-step) and against time; steps
-    up and steps down in two colours, numbered by event."""
-    fig = Figure(figsize=(11, 6.4))
+    """Six panels: K and T against the operating point (input and output level, mid-step)
+    and against time; steps up and steps down in two colours, numbered by event."""
+    fig = Figure(figsize=(13, 6.4))
     FigureCanvasAgg(fig)
-    axes = fig.subplots(2, 2)
+    axes = fig.subplots(2, 3)
     t_unit = units.get("time", "s")
     k_unit = f"{units.get('output', '-')}/{units.get('input', '-')}" if units else ""
     level = [0.5 * (e.u0 + e.u1) for e in est]
+    out_level = [0.5 * (e.y0 + e.y_inf) for e in est]
     tu = units.get("time")
     t0 = [in_time_unit(e.t0, tu) for e in est]
     Ts = [in_time_unit(e.T, tu) for e in est]
@@ -52,6 +53,8 @@ def consistency_figure(est: list[EventEstimate], units: dict[str, str], *,
             ("dominant time constant", Ts, T_ci, t_unit))):
         for col, (x, xlabel) in enumerate(((level, "input level (mid-step)" + (
                 f" [{units['input']}]" if units.get("input") else "")),
+                (out_level, "output level (mid-step)" + (
+                    f" [{units['output']}]" if units.get("output") else "")),
                 (t0, f"step time [{t_unit}]"))):
             ax = axes[row][col]
             for up, colour, lab in ((True, "#c44e52", "steps up"),
