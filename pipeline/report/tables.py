@@ -154,7 +154,8 @@ def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
             Cell(f"{with_ci(fit, 'K', r.record)} "
                  f"{unit_of('K', r.record, fit.model.structure)}".strip(), "num"),
             Cell(dynamics_text(fit.model.structure, p, r.record)),
-            Cell(fmt(shown("delay", fit.model.delay, r.record.units, None)), "num"),
+            Cell(f"{fmt(shown('delay', fit.model.delay, r.record.units, None))} "
+                 f"{unit_of('delay', r.record, None)}".strip(), "num"),
             Cell(fmt(fit.metrics.get("mse_validation")), "num"),
             Cell(fmt(fit.metrics.get("fit_percent"), 3), "num"),
         ])
