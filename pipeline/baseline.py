@@ -1,9 +1,13 @@
 """Regression gate: compare a results.json object with a baseline one (pure functions).
 
-Records are matched by ``name``, fits by ``(event, method)``. :func:`compare` returns a
+Records are matched by ``name``, fits by ``(event, label)`` (the method, with the events of
+a joint fit: :func:`pipeline.schema.fit_label`). :func:`compare` returns a
 :class:`Comparison`; it is a regression (exit code 1 in the CLI) when any of these holds:
 
-* **param_drift** - a parameter of a fit that is ok in both moved beyond its tolerance.
+* **param_drift** - a parameter of a fit that is ok in both moved beyond its tolerance
+  (and, for fits with 95 % intervals, beyond their combined half-widths; when the two
+  models' step responses agree within the dynamics tolerance only the gain and the dead
+  time are compared, since an over-parameterised fit trades its time constants freely).
   The change is relative, ``(current - baseline) / scale``, where ``scale`` is
   ``|baseline|`` except for parameters whose baseline may sensibly be zero or tiny:
 
@@ -225,21 +229,42 @@ def param_findings(record: str, event: int, method: str, base: FitDoc, cur: FitD
         # another structure: only the gain and the dead time keep their meaning
         out.extend(_structure_findings(record, event, method, base, cur, tol))
         names = {"K", "delay"} & names
+    # the same response from other parameters: an over-parameterised fit's dynamics are
+    # not determined one by one, so only the gain and dead time are compared one by one
+    same_response = bs == cs and step_response_distance(bs, bp, cs, cp) <= tol.dynamics
     for name in sorted(names, key=_param_order):
         default = 0.0 if name == "delay" else None  # no delay entry: no dead time
         b, c = bp.get(name, default), cp.get(name, default)
         if not (is_number(b) and is_number(c)):
             continue
+        if same_response and name not in ("K", "delay"):
+            continue
         b, c = float(b), float(c)
         change = relative_change(name, bs, bp, c)
         limit = tol.for_param(name)
-        if abs(change) > limit:
+        if abs(change) > limit and not within_intervals(name, b, c, base, cur):
             out.append(Finding(
                 record, event, method, "param_drift", name, b, c, change, limit,
                 message=f"{where}: {name} drifted {pct_text(change)} ({num_text(b)} -> "
                         f"{num_text(c)}; tolerance {pct_text(limit, sign=False)}"
                         f"{_scale_note(name, bs, bp)})"))
     return out
+
+
+def within_intervals(name: str, b: float, c: float, base: FitDoc, cur: FitDoc) -> bool:
+    """True when both fits carry 95 % intervals for ``name`` and the change is within
+    their combined half-widths (sqrt(h_b^2 + h_c^2)): two refinements of the same plant on
+    fresh noise differ by that much about one time in twenty, and no drift is shown."""
+    hb, hc = _half(base.ci95.get(name)), _half(cur.ci95.get(name))
+    if hb is None or hc is None:
+        return False
+    return abs(c - b) <= math.hypot(hb, hc)
+
+
+def _half(ci) -> float | None:
+    if not ci or ci[0] is None or ci[1] is None:
+        return None
+    return (float(ci[1]) - float(ci[0])) / 2.0
 
 
 def _structure_findings(record, event, method, base: FitDoc, cur: FitDoc,

@@ -23,8 +23,9 @@ from scipy.stats import spearmanr
 from .consistency import gain_flags
 from .events import Event
 from .fit import Fit, Flag
+from .methods import REGISTRY
 from .models import PARAMETERS
-from .record import Record
+from .record import Record, in_time_unit
 from .results import RecordResult
 
 #: Every flag code, with what it means (the report's legend and the docs read this).
@@ -42,6 +43,7 @@ FLAGS: dict[str, str] = {
     "residuals_not_white": "the model misses the data by much more than the noise: the "
                            "structure does not explain the response",
     "wide_ci": "a parameter's 95 % interval is wider than the parameter itself",
+    "gain_sign_wrong": "the model's gain has the opposite sign of the step's response",
     "closed_loop_suspected": "the input follows the output: the log looks closed-loop, not "
                              "a step test",
     "gain_inconsistent": "the events' gains disagree beyond their uncertainty: the plant is "
@@ -55,6 +57,11 @@ SEVERITY_ORDER = ("ok", "warning", "unreliable")
 
 #: Validation NRMSE fit below this (percent) is a poor fit (half the variation unexplained).
 POOR_FIT_PERCENT = 50.0
+#: A refined model that has reached less than this share of its final value by the end of
+#: its window extrapolates its gain (the 95 % settling of a step response).
+SETTLED_SHARE = 0.95
+#: A misfit this many noise sigmas is not a model of the data at all (unreliable).
+UNRELIABLE_MISFIT = 10.0
 #: A model whose RMS misfit is this many noise sigmas off explains the data structurally
 #: wrong (with the right structure the misfit is the noise: ratio ~1).
 MISFIT_RATIO = 3.0
@@ -77,8 +84,10 @@ def verdict_of(flags: tuple[Flag, ...] | list[Flag]) -> str:
 
 
 def is_refined(method: str) -> bool:
-    """A least-squares refinement (fitted to the data) rather than a graphical reading."""
-    return method.startswith("lsq_")
+    """A least-squares refinement (fitted to the data) rather than a graphical reading
+    (the registry's ``kind``)."""
+    info = REGISTRY.get(method)
+    return info is not None and info.kind == "refinement"
 
 
 def grade(result: RecordResult) -> RecordResult:
@@ -165,7 +174,7 @@ def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
     rec = result.record
     ev = result.events[fit.event]
     checks = (_unsettled, _baseline, _below_sample_time, _delay_clipped, _fit_quality,
-              _misfit, _wide_ci, _overshoot_in_noise, _undershoot_unmodelled)
+              _misfit, _gain_sign, _wide_ci, _overshoot_in_noise, _undershoot_unmodelled)
     out = [f for check in checks if (f := check(fit, ev, rec)) is not None]
     held_out = [result.events[i] for i in result.validation_events]
     vm = _validation_misfit(fit, held_out, rec)
@@ -197,22 +206,32 @@ def _unit(name: str, rec: Record, fit: Fit) -> str:
     return f" {u}" if u else ""
 
 
+def _t(seconds: float, rec: Record) -> str:
+    """A duration in the user's time unit, e.g. ``"12.5 min"``."""
+    unit = rec.units.get("time") or "s"
+    return f"{in_time_unit(seconds, rec.units.get('time')):.3g} {unit}"
+
+
 def _unsettled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """Graphical: the window did not settle (segmentation). Refined: the model itself has
+    not reached :data:`SETTLED_SHARE` of its final value by the window's end, so its gain
+    is an extrapolation (an integrating model never settles: no flag)."""
     if ev.kind != "step":
         return None
     window = float(rec.t[ev.i_end - 1] - ev.t0)
     if is_refined(fit.method):
-        scale = fit.model.time_scale + fit.model.delay
-        if not (math.isfinite(scale) and scale > 0) or window >= 3.0 * scale:
+        if fit.model.spec.integrating or fit.model.K == 0:
             return None
-        return Flag("unsettled", f"The window after the step is {window:.3g} s, "
-                    f"{window / scale:.2g} times the model's time scale ({scale:.3g} s): the "
-                    "gain is extrapolated beyond the data.",
-                    {"window": window, "time_scale": scale})
+        share = float(fit.model.unit_step(np.array([window]))[0] / fit.model.K)
+        if share >= SETTLED_SHARE:
+            return None
+        return Flag("unsettled", f"By the end of the window ({_t(window, rec)} after the "
+                    f"step) the model has reached {share:.0%} of its final value: the gain is "
+                    "extrapolated beyond the data.", {"window": window, "share": share})
     if ev.settled:
         return None
     K = fit.model.K
-    return Flag("unsettled", f"The window ends {window:.3g} s after the step, before the "
+    return Flag("unsettled", f"The window ends {_t(window, rec)} after the step, before the "
                 f"output settles: the gain K = {K:.4g}{_unit('K', rec, fit)} is read from a "
                 "level that is still moving (a lower bound of the true gain).",
                 {"window": window, "K": K})
@@ -234,7 +253,8 @@ def _baseline(fit: Fit, ev: Event, rec: Record) -> Flag | None:
         return None
     return Flag("baseline_not_steady", f"The output drifts by {drift:.3g}"
                 f"{_unit_of_output(rec)} ({drift / abs(dy):.0%} of the step's change) over the "
-                f"{t[-1] - t[0]:.3g} s before the step: the baseline is not steady, so y0 and "
+                f"{_t(float(t[-1] - t[0]), rec)} before the step: the baseline is not steady, "
+                "so y0 and "
                 "the gain are biased.", {"drift": drift, "share": drift / abs(dy)})
 
 
@@ -254,8 +274,8 @@ def _below_sample_time(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     if not fast:
         return None
     k, v = min(fast.items(), key=lambda kv: kv[1])
-    return Flag("dynamics_below_sample_time", f"{k} = {v:.3g} s is shorter than the sample "
-                f"time {dt:.3g} s: the data only say this part of the response is faster "
+    return Flag("dynamics_below_sample_time", f"{k} = {_t(v, rec)} is shorter than the "
+                f"sample time {_t(dt, rec)}: the data only say this part of the response is faster "
                 "than the sampling, not how fast.", {"parameter": k, "value": v,
                                                      "sample_time": dt})
 
@@ -266,7 +286,8 @@ def _delay_clipped(fit: Fit, ev: Event, rec: Record) -> Flag | None:
                 if isinstance(d.get(k), int | float)), None)
     if raw is None or raw >= 0 or fit.model.delay > 0:
         return None
-    return Flag("delay_clipped", f"The method computed a negative dead time ({raw:.3g} s) "
+    return Flag("delay_clipped", f"The method computed a negative dead time "
+                f"({_t(float(raw), rec)}) "
                 "and set it to 0: the response starts faster than the model's shape allows.",
                 {"delay_computed": float(raw)})
 
@@ -286,16 +307,40 @@ def _fit_quality(fit: Fit, ev: Event, rec: Record) -> Flag | None:
 
 
 def _misfit(fit: Fit, ev: Event, rec: Record) -> Flag | None:
-    mse = fit.metrics.get("mse_identification", math.nan)
+    """The error on the model's own event against the noise (a refinement's own fit error,
+    at its fitted operating point; a reading's simulated from the event's). Beyond
+    :data:`MISFIT_RATIO` sigmas a warning, beyond :data:`UNRELIABLE_MISFIT` or worse than
+    the window's mean (a negative NRMSE fit) unreliable."""
+    mse = fit.diagnostics.get("mse_fit") if is_refined(fit.method) else None
+    mse = float(mse) if isinstance(mse, int | float) else fit.metrics.get(
+        "mse_identification", math.nan)
     if not math.isfinite(mse) or ev.noise <= 0:
         return None
     ratio = math.sqrt(mse) / ev.noise
     if ratio <= MISFIT_RATIO:
         return None
+    spread = float(np.std(rec.y[ev.i_start:ev.i_end]))
+    fit_pct = 100.0 * (1.0 - math.sqrt(mse) / spread) if spread > 0 else math.nan
+    bad = ratio > UNRELIABLE_MISFIT or fit_pct < 0
     return Flag("residuals_not_white", f"On its own event the model misses the data by "
                 f"{ratio:.1f} times the noise level (RMS {math.sqrt(mse):.3g}"
-                f"{_unit_of_output(rec)}): the residuals are structure, not noise.",
-                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": ev.noise})
+                f"{_unit_of_output(rec)}, fit {fit_pct:.0f} %): the residuals are structure, "
+                "not noise" + (" - this is not a model of the data." if bad else "."),
+                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": ev.noise,
+                 "fit_percent": fit_pct}, severity="unreliable" if bad else "warning")
+
+
+def _gain_sign(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """A self-regulating model whose gain has the opposite sign of the step's response."""
+    if ev.kind != "step" or fit.model.spec.integrating or ev.u_ss == ev.u0 \
+            or abs(ev.y_ss - ev.y0) <= 3 * ev.noise:
+        return None
+    seen = (ev.y_ss - ev.y0) / (ev.u_ss - ev.u0)
+    if fit.model.K * seen > 0:
+        return None
+    return Flag("gain_sign_wrong", f"The model's gain ({fit.model.K:.3g}) has the opposite "
+                f"sign of the step's response ({seen:+.3g}{_unit('K', rec, fit)}): the model is "
+                "wrong.", {"K": fit.model.K, "step_gain": seen}, severity="unreliable")
 
 
 def _wide_ci(fit: Fit, ev: Event, rec: Record) -> Flag | None:
@@ -343,7 +388,7 @@ def _undershoot_unmodelled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     if u is None or moving_the_other_way(data) is not None:
         return None
     return Flag("residuals_not_white", f"The output first moves the wrong way (by "
-                f"{u['depth']:.0%} of its change, {u['t']:.3g} s after the step) and a "
+                f"{u['depth']:.0%} of its change, {_t(u['t'], rec)} after the step) and a "
                 f"{fit.model.structure.replace('_', ' ')} model cannot: its residuals are "
                 "structure, not noise (an inverse response needs a zero, Tz < 0).",
                 {"undershoot": u["depth"], "t": u["t"]})

@@ -37,6 +37,9 @@ from pipeline.validate import score
 # and two equal lags with a 20x worse validation MSE; the gate rightly flags that.
 METHODS = ("first_order", "first_order_two_point", "viteckova1", "viteckova2", "sundaresan",
            "latzel", "harriott", "smith")
+#: every refinement, the over-parameterised ones included (zeta, Tz trade off freely)
+REFINED = tuple(m for m in __import__("pipeline.methods", fromlist=["REGISTRY"]).REGISTRY
+                if m.startswith("lsq_"))
 N_LOGS = 5
 
 
@@ -90,6 +93,20 @@ def _fit(doc: dict, record: str, method: str, event: int = 0) -> dict:
 
 
 # -- the rules against known truth -------------------------------------------------------
+
+def test_refinements_on_fresh_noise_are_not_regressions():
+    """Every lsq_ method on the same plants logged again with fresh noise: no regression
+    (the over-parameterised fits move their time constants within their intervals, with
+    the same step response)."""
+    base = results_doc(plan_logs(N_LOGS, seed=11), REFINED)
+    for noise_seed in (1, 2):
+        current = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=noise_seed), REFINED)
+        result = compare(current, base)
+        assert result.ok, [f.message for f in result.regressions]
+    drifted = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=5, gain_drift=0.10), REFINED)
+    k = {(f.record, f.method) for f in compare(drifted, base).regressions if f.parameter == "K"}
+    assert {(f"log_{i:03d}", "lsq_first_order") for i in range(N_LOGS)} <= k
+
 
 @pytest.mark.parametrize("noise_seed", [1, 2, 3])
 def test_unchanged_plant_fresh_noise_is_not_a_regression(baseline, noise_seed):

@@ -122,3 +122,43 @@ def test_every_flag_has_a_description():
             "dynamics_below_sample_time", "delay_clipped", "poor_fit", "negative_fit",
             "residuals_not_white", "wide_ci", "closed_loop_suspected", "gain_inconsistent",
             "direction_asymmetry"} <= set(FLAGS)
+
+
+def _graded(model: ProcessModel, method: str = "first_order"):
+    """A fit of ``model`` on a clean first-order step, scored and graded as analyse does."""
+    from dataclasses import replace
+
+    from pipeline.fit import Fit
+    from pipeline.grade import grade
+    from pipeline.validate import score
+
+    rec = step_record(FOPDT, u0=2.0, changes=[(20.0, 5.0), (150.0, 3.0)], t_end=280.0,
+                      dt=0.1, y0=7.0, noise=0.03, seed=1)
+    res = analyse(rec, AnalysisOptions(methods=FIRST, consistency=False))
+    fit = Fit(method, 0, "ok", model=model,
+              metrics=score(model, rec, res.events, res.events[0], [1]))
+    return grade(replace(res, fits=[fit])).fits[0]
+
+
+def test_a_wrong_gain_sign_is_unreliable():
+    fit = _graded(ProcessModel("first_order", {"K": -2.0, "T": 10.0, "delay": 1.0}))
+    assert fit.verdict == "unreliable" and "gain_sign_wrong" in {f.code for f in fit.flags}
+
+
+def test_a_gross_misfit_is_unreliable_a_small_one_a_warning():
+    far = _graded(ProcessModel("first_order", {"K": 2.0, "T": 60.0, "delay": 1.0}))
+    near = _graded(ProcessModel("first_order", {"K": 2.0, "T": 10.6, "delay": 1.0}))
+    (f,) = [x for x in far.flags if x.code == "residuals_not_white"]
+    assert f.severity == "unreliable" and far.verdict == "unreliable"
+    assert f.values["misfit_ratio"] > 10
+    assert near.verdict in ("ok", "warning")
+    assert all(x.severity == "warning" for x in near.flags)
+
+
+def test_flag_messages_speak_the_users_time_unit():
+    rec = step_record(FOPDT, u0=2.0, changes=[(20.0, 5.0)], t_end=35.0, dt=0.1, y0=7.0,
+                      noise=0.02, seed=2)
+    rec = make_record(rec.t, rec.u, rec.y, name="m", source="<m>", units={"time": "min"})
+    res = analyse(rec, AnalysisOptions(methods=FIRST))
+    flag = next(f for f in res.fit("first_order", 0).flags if f.code == "unsettled")
+    assert "0.25 min after the step" in flag.message
