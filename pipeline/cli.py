@@ -14,6 +14,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from .cli_data import with_data_options
@@ -190,25 +191,56 @@ def identify(
         out.print(f"reports written to {out_dir}/ (report.html, report.md, results.json)")
 
 
-def _print_ranking(res) -> None:
-    from .report.tables import fmt, params_text
+VERDICT_STYLE = {"ok": "bold green", "warning": "bold yellow", "unreliable": "bold red",
+                 "failed": "bold red"}
 
+
+def _rich(t, columns: list[str] | None = None, title: str = "") -> Table:
+    """A report table (:class:`pipeline.report.tables.Table`) for the terminal, with only
+    ``columns`` (by name) when given; verdicts in colour."""
+    keep = [k for k, c in enumerate(t.columns) if columns is None or c in columns]
+    verdicts = [k for k in keep if t.rows and t.rows[0][k].kind == "verdict"]
+    tab = Table(title=title or None)
+    for k in keep:
+        tab.add_column(t.columns[k], no_wrap=t.columns[k] in ("method", "verdict"))
+    if verdicts:
+        tab.add_column("flags", overflow="fold")
+    for row in t.rows:
+        cells = []
+        for k in keep:
+            c = row[k]
+            style = VERDICT_STYLE.get(c.text) if c.kind == "verdict" else None
+            cells.append(f"[{style}]{escape(c.text)}[/]" if style else escape(c.text))
+        if verdicts:
+            cells.append(escape(row[verdicts[0]].note).replace(", ", " "))
+        tab.add_row(*cells)
+    return tab
+
+
+def _print_ranking(res) -> None:
+    """The recommended model first (units, intervals, verdict, flags), then each event's
+    ranking with verdicts: the same tables as the report."""
+    from .report.tables import ranking_table, recommended_box
+
+    box = recommended_box(res)
+    if box is not None:
+        head = "Recommended model" if box["recommended"] else "Best-ranked model"
+        style = VERDICT_STYLE.get(box["verdict"], "bold")
+        out.print(f"{head} for {escape(res.name)}: [{style}]{box['verdict']}[/]")
+        out.print(f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
+                  f"validation fit {box['fit']} %, MSE {box['mse']})", markup=False)
+        out.print(_rich(box["params"]))
+        for f in box["flags"]:
+            out.print(f"  [{VERDICT_STYLE[f['severity']]}]{f['code']}[/] "
+                      f"{escape(f['message'])}")
+        out.print(f"  why: {box['reason']}", markup=False)
     has_val = bool(res.validation_events)
+    crit = "MSE (valid.)" if has_val else "ISE (ident.)"
+    columns = ["rank", "method", "verdict", "parameters", crit] + (
+        ["fit % (valid.)"] if has_val else [])
     for i in res.identification_events:
-        tab = Table(title=f"{res.name}: event {i}, ranked by "
-                    f"{'validation MSE' if has_val else 'ISE'}")
-        tab.add_column("#")
-        tab.add_column("method", no_wrap=True)
-        cols = ["parameters", "ISE"] + (["MSE valid.", "fit % valid."] if has_val else [])
-        for col in cols:
-            tab.add_column(col)
-        for k, f in enumerate(res.ranking(i), 1):
-            m = f.metrics
-            cells = [str(k), f.method, params_text(f.model.params), fmt(m.get("ise"))]
-            if has_val:
-                cells += [fmt(m.get("mse_validation")), fmt(m.get("fit_percent"), 3)]
-            tab.add_row(*cells)
-        out.print(tab)
+        out.print(_rich(ranking_table(res, i), columns,
+                        title=f"{res.name}: event {i}, ranked by {crit}"))
         for f in res.fits:
             if f.event == i and not f.ok:
                 out.print(f"  {f.method}: {f.status}: {f.reason}", markup=False)

@@ -60,10 +60,26 @@ DATA_OPTIONS: tuple[tuple[str, object, typer.models.OptionInfo], ...] = (
                                            "are not data: error (default) or skip")),
     ("initial_input", float | None, _option("--initial-input", "input level before the "
                                             "first row")),
+    ("units", str | None, _option("--units", "units of the signals, e.g. input=V,output=degC "
+                                  "(default: from the header, if it gives them)")),
 )
 
 #: the options that are not ``data:`` format keys
-_COMMON = ("input", "output", "format", "initial_input")
+_COMMON = ("input", "output", "format", "initial_input", "units")
+
+
+def _units(text: str | None) -> dict[str, str] | None:
+    """``input=V,output=degC`` -> ``{"input": "V", "output": "degC"}``."""
+    if text is None:
+        return None
+    out = {}
+    for item in (x.strip() for x in text.split(",") if x.strip()):
+        key, sep, value = item.partition("=")
+        if not sep or key.strip() not in ("input", "output", "time") or not value.strip():
+            raise UserError(f"--units {text!r}: expected input=UNIT,output=UNIT (and "
+                            "time=UNIT), e.g. input=V,output=degC")
+        out[key.strip()] = value.strip()
+    return out
 
 
 def flag(key: str) -> str:
@@ -108,7 +124,8 @@ def data_config(file: Path, given: dict):
         data = DataConfig(path=str(file), format=given["format"],
                           input=fmt.parse_signal(given["input"]),
                           output=fmt.parse_signal(given["output"]),
-                          initial_input=given["initial_input"], **keys)
+                          initial_input=given["initial_input"], units=_units(given["units"]),
+                          **keys)
     except ValidationError as exc:
         err0 = exc.errors()[0]
         raise UserError(f"{flag(str(err0['loc'][0]))}: {err0['msg']} "
