@@ -7,12 +7,12 @@ constant with 95 % intervals, at its operating point and time). Then:
   the gains around their weighted mean (significant at 0.1 %) *and* a spread that matters
   (the extreme gains differ by more than :data:`GAIN_SPREAD` of their mean), so tiny but
   significant differences on very clean data are not alarms;
-* ``direction_asymmetry`` - steps up and steps down give different gains (Welch-type z on
-  the two groups' weighted means, same two conditions);
+* ``direction_asymmetry`` - steps up and steps down give different gains at the same level
+  (the gains regressed on the step's mid-level and its direction; same two conditions);
 * the static map - the settled (asymptotic) output against the input level, fitted with a
   line and a quadratic; "clearly not a line" when the quadratic halves the residual and
-  its curvature is significant (an F test at 0.1 %). DaISy's lamp heats with the power
-  ~ u^2: its step-level asymptotes follow y = a + b u^2.
+  its curvature is significant (an F test at 0.1 %), as for a heater whose power goes
+  with u^2 (a Hammerstein plant: tests/test_consistency_e2e.py).
 
 :func:`event_estimates` identifies each step on its own: its dominant time constant by
 least squares with the record's recommended structure (first order when that has no time
@@ -35,7 +35,7 @@ from .joint import event_fit
 from .methods import identify
 from .models import STRUCTURES, ProcessModel
 from .record import Record
-from .refine import RefineOptions
+from .refine import MIN_DOF, RefineOptions
 from .simulation import simulate
 from .uncertainty import covariance, t_quantile, variance_factor
 
@@ -68,10 +68,7 @@ class EventEstimate:
     T: float
     T_ci: tuple[float, float]
     state: str = ""  # how the initial state was treated (rest, carried, estimated)
-
-    @property
-    def K_se(self) -> float:
-        return max((self.K_ci[1] - self.K_ci[0]) / (2 * 1.959964), 1e-300)
+    K_se: float = math.nan  # the gain's standard error (the tests use it, not the interval)
 
     @property
     def up(self) -> bool:
@@ -151,18 +148,18 @@ def event_estimates(record: Record, events: list[Event], states: list[str],
         name = max(lags, key=lambda p: float(fit.model.params[p]))
         if None in fit.ci95[name]:
             continue
-        K, K_ci, y_before, y_after = gains[i]
+        K, K_se, K_ci, y_before, y_after = gains[i]
         ev = events[i]
         out.append(EventEstimate(i, ev.t0, ev.u0, ev.u_ss, y_before, y_after, K, K_ci,
                                  float(fit.model.params[name]), tuple(fit.ci95[name]),
-                                 str(fit.diagnostics.get("initial_state", ""))))
+                                 str(fit.diagnostics.get("initial_state", "")), K_se))
     return out
 
 
 def step_gains(record: Record, events: list[Event], shape: ProcessModel
-               ) -> dict[int, tuple[float, tuple[float, float], float, float]]:
-    """Each step's own gain at shared dynamics: ``{event: (K, 95 % interval, asymptote
-    before, asymptote after)}``.
+               ) -> dict[int, tuple[float, float, tuple[float, float], float, float]]:
+    """Each step's own gain at shared dynamics: ``{event: (K, its standard error, 95 %
+    interval, asymptote before, asymptote after)}``.
 
     The input is split into its events' increments, ``u = u_start + sum_j d_j`` (``d_j``
     what event j adds, held after its window), and the output regressed on the unit-gain
@@ -190,13 +187,13 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
     e = y - X @ coef
     f = variance_factor(e)
     cov = covariance(X, e, X.shape[1], f)
-    q = t_quantile(max(t.size / f - X.shape[1], 1.0))
+    q = t_quantile(max(t.size / f - X.shape[1], MIN_DOF))
     out, level = {}, float(coef[0])
     for j, ev in enumerate(events):
         K, se = float(coef[j + 1]), float(math.sqrt(max(cov[j + 1, j + 1], 0.0)))
         after = level + K * delta[j]
         if ev.kind == "step" and delta[j] != 0:
-            out[ev.index] = (K, (K - q * se, K + q * se), level, after)
+            out[ev.index] = (K, se, (K - q * se, K + q * se), level, after)
         level = after
     return out
 
@@ -224,27 +221,37 @@ def gain_flags(estimates: list[EventEstimate], unit: str = "") -> list[Flag]:
             f"chi-square p = {p:.1g}). No single linear model fits every operating point: "
             "use the model near the level you will control at, or a gain schedule.",
             {"gains": listing, "spread": spread, "p": p, "mean": mean}))
-    up = [e for e in est if e.up]
-    down = [e for e in est if not e.up]
-    if up and down:
-        mu, su = _wmean(up)
-        md, sd = _wmean(down)
-        z = (mu - md) / math.hypot(su, sd)
-        p2 = float(2 * stats.norm.sf(abs(z)))
-        rel = abs(mu - md) / abs(mean) if mean else math.inf
-        if p2 < ALPHA and rel > GAIN_SPREAD:
-            out.append(Flag(
-                "direction_asymmetry",
-                f"Steps up give K = {mu:.3g}{u}, steps down {md:.3g}{u} ({rel:.0%} apart, "
-                f"p = {p2:.1g}): the plant responds differently to increases and decreases.",
-                {"K_up": mu, "K_down": md, "p": p2}))
+    asym = _direction(est, mean, u)
+    if asym is not None:
+        out.append(asym)
     return out
 
 
-def _wmean(est: list[EventEstimate]) -> tuple[float, float]:
-    w = np.array([1.0 / e.K_se**2 for e in est])
+def _direction(est: list[EventEstimate], mean: float, u: str) -> Flag | None:
+    """``direction_asymmetry``: the gains regressed on the step's mid-level and its
+    direction, ``K = a + b m + c d`` (``d`` +1/2 up, -1/2 down; weighted by the gains'
+    errors), so a gain that only follows the level (a static curve, where steps up and
+    down sit at different levels) is not called asymmetric; flagged when ``c`` is
+    significant and more than :data:`GAIN_SPREAD` of the mean gain."""
+    if sum(e.up for e in est) < 1 or sum(not e.up for e in est) < 1 or len(est) < 4:
+        return None
+    X = np.array([[1.0, 0.5 * (e.u0 + e.u1), 0.5 if e.up else -0.5] for e in est])
     K = np.array([e.K for e in est])
-    return float(np.sum(w * K) / np.sum(w)), float(1.0 / math.sqrt(np.sum(w)))
+    w = np.array([1.0 / e.K_se for e in est])
+    coef, *_ = np.linalg.lstsq(X * w[:, None], K * w, rcond=None)
+    cov = np.linalg.pinv((X * w[:, None]).T @ (X * w[:, None]))
+    c, se_c = float(coef[2]), float(math.sqrt(max(cov[2, 2], 0.0)))
+    p = float(2 * stats.norm.sf(abs(c) / se_c)) if se_c > 0 else 1.0
+    rel = abs(c) / abs(mean) if mean else math.inf
+    if not (p < ALPHA and rel > GAIN_SPREAD):
+        return None
+    up_k = float(np.mean([e.K for e in est if e.up]))
+    down_k = float(np.mean([e.K for e in est if not e.up]))
+    return Flag("direction_asymmetry",
+                f"At the same level, steps up and steps down differ in gain by {c:+.3g}{u} "
+                f"({rel:.0%} of the mean; steps up average {up_k:.3g}, down {down_k:.3g}, "
+                f"p = {p:.1g}): the plant responds differently to increases and decreases.",
+                {"difference": c, "p": p, "K_up": up_k, "K_down": down_k})
 
 
 def static_map(estimates: list[EventEstimate]) -> StaticMap | None:

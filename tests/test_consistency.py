@@ -10,7 +10,7 @@ from pipeline.consistency import EventEstimate, gain_flags, static_map, static_m
 
 def est(i, u0, u1, K, se, y0=0.0, T=10.0):
     return EventEstimate(i, 100.0 * i, u0, u1, y0, y0 + K * (u1 - u0), K,
-                         (K - 1.96 * se, K + 1.96 * se), T, (T - 1, T + 1))
+                         (K - 1.96 * se, K + 1.96 * se), T, (T - 1, T + 1), K_se=se)
 
 
 def test_equal_gains_within_noise_raise_nothing():
@@ -41,6 +41,14 @@ def test_direction_asymmetry():
     assert {f.code for f in gain_flags(e)} == {"gain_inconsistent", "direction_asymmetry"}
 
 
+def test_a_level_dependent_gain_is_not_asymmetric():
+    """A square law: each step's gain is u_before + u_after, whatever its direction (up
+    steps happen to sit higher here): inconsistent, not asymmetric."""
+    steps = [(2, 4), (4, 6), (6, 3), (3, 5), (5, 2), (2, 7)]
+    e = [est(i, a, b, a + b, 0.01) for i, (a, b) in enumerate(steps)]
+    assert {f.code for f in gain_flags(e)} == {"gain_inconsistent"}
+
+
 def test_static_map_of_a_square_law_is_not_a_line():
     levels = [6, 9, 4, 8, 3, 7, 6]
     e = []
@@ -48,11 +56,11 @@ def test_static_map_of_a_square_law_is_not_a_line():
         u0, u1 = levels[i], levels[i + 1]
         y0, y1 = 100 + 1.0 * u0**2, 100 + 1.0 * u1**2
         e.append(EventEstimate(i, 200.0 * i, u0, u1, y0, y1, (y1 - y0) / (u1 - u0),
-                               (0, 0), 60.0, (50, 70)))
+                               (0, 0), 60.0, (50, 70), K_se=0.01))
     m = static_map(e)
     assert m.nonlinear and m.rms_quadratic < 1e-9 < m.rms_line
     assert m.quadratic[2] == np.float64(m.quadratic[2]) and abs(m.quadratic[2] - 1.0) < 1e-9
     assert "u^2" in static_map_note(m, {"output": "degC"})
     lin = [EventEstimate(x.index, x.t0, x.u0, x.u1, 3 * x.u0, 3 * x.u1, 3.0, (2.9, 3.1), 60,
-                         (50, 70)) for x in e]
+                         (50, 70), K_se=0.05) for x in e]
     assert not static_map(lin).nonlinear and static_map_note(static_map(lin), {}) is None

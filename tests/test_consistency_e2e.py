@@ -52,6 +52,7 @@ def test_square_law_plant_is_gain_inconsistent():
         assert gains == pytest.approx([3.0, 5.0, 4.5, 4.0], rel=0.02)
         assert res.consistency.static_map.nonlinear
     assert hits == 20
+    assert "direction_asymmetry" not in codes(res)  # the gain follows the level, not the way
     flag = next(f for f in res.flags if f.code == "gain_inconsistent")
     assert "events 0, 1, 2, 3" in flag.message
     assert any(f.code == "gain_inconsistent" for f in res.recommended.flags)
