@@ -70,6 +70,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import UserError
 from .files import write_atomic
 from .findings import Comparison, Finding, is_number, num_text, pct_text
 from .models import PARAMETERS, STRUCTURES, ProcessModel
@@ -86,6 +87,14 @@ class Tolerances:
     dynamics_factor: float = 3.0
     mse_tol: float = 0.10
     missing_is_regression: bool = True
+
+    def __post_init__(self) -> None:
+        named = {"param_tol": self.param_tol, "mse_tol": self.mse_tol,
+                 "dynamics_factor": self.dynamics_factor,
+                 **{f"tolerance of {k}": v for k, v in self.param_tols.items()}}
+        for name, v in named.items():
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise UserError(f"{name} is {v!r}; expected a fraction >= 0, e.g. 0.05")
 
     def for_param(self, name: str) -> float:
         if name in self.param_tols:
@@ -362,6 +371,5 @@ def accept(results_path: str | os.PathLike, to_path: str | os.PathLike) -> Path:
     src = Path(results_path)
     load_results(src)  # refuse to accept something that is not a valid results file
     dst = Path(to_path)
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(dst, src.read_bytes())
+    write_atomic(dst, src.read_bytes(), "baseline")
     return dst

@@ -94,10 +94,9 @@ def append_history(path: str | os.PathLike, results: ResultsDoc,
     p = Path(path)
     new = history_rows(results, run_time)
     frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() else new
-    p.parent.mkdir(parents=True, exist_ok=True)
     buf = io.BytesIO()
     frame.write_parquet(buf)
-    write_atomic(p, buf.getvalue())
+    write_atomic(p, buf.getvalue(), "history")
     return frame
 
 

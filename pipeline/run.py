@@ -182,6 +182,20 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     cfg = config if isinstance(config, RunConfig) else load_config(config)
     created = created or now_iso()
     specs = resolve_specs(cfg)
+    # the baseline and the history are read, the output files checked, before the batch:
+    # a bad one costs no run
+    for path, what in ((junit, "JUnit file"), (history, "history")):
+        if path is not None and Path(path).is_dir():
+            raise UserError(f"{path}: cannot write the {what} (is a folder); expected a file")
+    base_doc = past = None
+    if baseline is not None:
+        from .results import load_results
+
+        base_doc = load_results(baseline)
+    if history is not None and Path(history).exists():
+        from .history import load_history
+
+        past = load_history(history)
     records = run_records(specs, cfg, process_record, workers=workers, executor=executor,
                           scheduler=scheduler, progress=progress)
     run = RunResult(records, config=cfg.source, created=created)
@@ -193,11 +207,10 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     extras = Extras()
     messages: list[str] = []
     comparison = None
-    if baseline is not None:
+    if base_doc is not None:
         from .baseline import Tolerances, compare
-        from .results import load_results
 
-        comparison = compare(doc, load_results(baseline), tolerances or Tolerances())
+        comparison = compare(doc, base_doc, tolerances or Tolerances())
         extras.regressions = [f.as_row() for f in comparison.regressions]
         extras.new = [str(f) for f in comparison.new]
         messages.append(f"{len(comparison.regressions)} regression(s) against {baseline}")
@@ -205,14 +218,15 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     if history is not None:
         import polars as pl
 
-        from .history import history_rows, load_history
+        from .history import history_rows
         from .report.history_plots import history_figures
 
         rows = history_rows(doc, run_time)  # the file is appended after the report
-        past = load_history(history) if Path(history).exists() else None
         frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
         extras.history = history_figures(frame)
-    target = out_dir or Path(cfg.output or Path("reports") / cfg.name)
+    # the config's output: relative to the config file; the default under ./reports
+    target = out_dir or (Path(cfg.base_dir) / cfg.output if cfg.output
+                         else Path("reports") / cfg.name)
     with parallel_map(workers if executor == "local" else 1, len(records)) as mapper:
         write_run(target, run, doc, title=cfg.report.title or f"System identification: "
                   f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,

@@ -250,6 +250,11 @@ def test_synth_with_too_many_corrupt_logs_is_one_line(tmp_path):
     (["--tol", "Q=0.1"], "unknown parameter 'Q'"),
     (["--tol", "T"], "expected PARAMETER=FRACTION"),
     (["--workers", "0"], "workers must be at least 1"),
+    (["--param-tol", "-1"], "param_tol is -1.0"),
+    (["--mse-tol", "nan"], "mse_tol is nan"),
+    (["--tol", "T=-0.1"], "tolerance of T is -0.1"),
+    (["--baseline", "nowhere.json"], "results file not found"),
+    (["--junit", "."], "cannot write the JUnit file"),
     (["--executor", "spark"], "unknown executor"),
 ])
 def test_bad_run_options_are_one_line(tmp_path, extra, needle):

@@ -15,6 +15,7 @@ from pathlib import Path
 from jinja2 import Environment, PackageLoader, select_autoescape
 
 from ..errors import UserError
+from ..files import default_mode
 from ..grade import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
@@ -100,13 +101,15 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
     rename, the report files last.
     """
     out_dir = Path(out_dir).resolve()
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
     if out_dir.exists() and not out_dir.is_dir():
         raise UserError(f"{out_dir}: exists and is not a folder; expected an output folder")
     md, page, files = render(run, doc, title=title, extras=extras, plots_mode=plots_mode,
                              mapper=mapper)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+    tmp = None
     try:
+        out_dir.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
         (tmp / "results.json").write_text(results_json(doc), encoding="utf-8")
         if markdown:
             (tmp / "plots").mkdir()
@@ -120,9 +123,10 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
         else:
             os.replace(tmp, out_dir)
     except OSError as exc:
-        raise UserError(f"{out_dir}: cannot write the report ({exc})") from None
+        raise UserError(f"{out_dir}: cannot write the report ({exc.strerror or exc})") from None
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
     return out_dir
 
 

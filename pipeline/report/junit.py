@@ -65,8 +65,7 @@ def write_junit(path: str | os.PathLike, current: ResultsDoc,
                 comparison: Comparison | None = None) -> Path:
     """Write :func:`junit_xml` to ``path`` atomically (temporary file, then rename)."""
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(p, junit_xml(current, comparison).encode("utf-8"))
+    write_atomic(p, junit_xml(current, comparison).encode("utf-8"), "JUnit file")
     return p
 
 

@@ -191,11 +191,12 @@ def write_synthetic_logs(folder: str | os.PathLike, n: int, *, seed: int = 0,
     plans = plan_logs(n, seed=seed, gain_drift=gain_drift, corrupt=corrupt,
                       noise_rel=noise_rel, n_steps=n_steps, **plan_options)
     out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: exists and is not a folder; expected a folder for the logs")
     paths = []
     for plan in plans:
         path = out / f"{plan.name}.csv"
-        write_atomic(path, log_bytes(plan))
+        write_atomic(path, log_bytes(plan), "synthetic log")
         paths.append(path)
     return paths
 
