@@ -33,7 +33,7 @@ from .events import Event, EventData
 from .fit import Fit, Flag
 from .joint import event_fit
 from .methods import identify
-from .models import STRUCTURES, ProcessModel
+from .models import PARAMETERS, STRUCTURES, ProcessModel
 from .record import Record
 from .refine import MIN_DOF, RefineOptions
 from .simulation import simulate
@@ -46,8 +46,8 @@ ALPHA = 1e-3
 #: The per-event structure when the recommended one has no lag to compare (its gain and
 #: time constant are what the report compares).
 FALLBACK = "first_order"
-#: The time constants a dominant one is chosen from (the largest).
-LAGS = ("T", "T1", "T2")
+#: The time constants a dominant one is chosen from (the largest): the lags of the table.
+LAGS = tuple(p.name for p in PARAMETERS.values() if p.lag)
 #: With this many step events or more, consistency is checked unless switched off.
 AUTO_MIN_STEPS = 3
 

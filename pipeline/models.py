@@ -75,6 +75,7 @@ class Parameter:
     scale: str = "value"
     floor: float = 0.0
     digits: int = 4
+    lag: bool = False  # the time constant of a lag (the dominant one sets the speed)
 
     def unit(self, units: Mapping[str, str] | None = None, *, integrating: bool = False
              ) -> str:
@@ -115,9 +116,9 @@ PARAMETERS: dict[str, Parameter] = {p.name: p for p in (
     Parameter("K", "gain", "gain K", tolerance="gain"),
     # a zero may be near 0 or change sign: its change is measured on the model's time scale
     Parameter("Tz", "time", "zero time constant Tz", scale="time_scale"),
-    Parameter("T", "time", "time constant T"),
-    Parameter("T1", "time", "time constant T1", scale="dominant_lag"),
-    Parameter("T2", "time", "time constant T2", scale="dominant_lag"),
+    Parameter("T", "time", "time constant T", lag=True),
+    Parameter("T1", "time", "time constant T1", scale="dominant_lag", lag=True),
+    Parameter("T2", "time", "time constant T2", scale="dominant_lag", lag=True),
     Parameter("n", "dimensionless", "order n"),
     Parameter("zeta", "dimensionless", "damping zeta", floor=0.1),
     Parameter("wn", "frequency", "natural frequency wn"),

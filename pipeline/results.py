@@ -220,8 +220,17 @@ def _params(p: dict) -> dict[str, float]:
     return {k: float(v) for k, v in p.items()}
 
 
+#: An interval bound beyond this magnitude means "unbounded" (null in results.json).
+UNBOUNDED = 1e100
+
+
 def _ci(ci: dict) -> dict[str, tuple[float | None, float | None]]:
-    return {k: (_finite(lo), _finite(hi)) for k, (lo, hi) in ci.items()}
+    return {k: (_bound(lo), _bound(hi)) for k, (lo, hi) in ci.items()}
+
+
+def _bound(v) -> float | None:
+    v = _finite(v)
+    return None if v is None or abs(v) > UNBOUNDED else v
 
 
 def _finite(v) -> float | None:

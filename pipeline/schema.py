@@ -155,8 +155,9 @@ class RecommendedDoc(_Doc):
 
 
 class EstimateDoc(_Doc):
-    """One step identified on its own (first order by least squares): its gain and time
-    constant with 95 % intervals, its input levels and the output's asymptotes."""
+    """One step identified on its own: its gain at the recommended dynamics and its own
+    dominant time constant, with 95 % intervals, its input levels and the output's
+    asymptotes (:mod:`pipeline.consistency`)."""
 
     event: int
     t0: float

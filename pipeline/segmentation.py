@@ -391,4 +391,7 @@ def event_data(t, u, y, *, initial_input: float | None = None, event: int = 0,
     events = segment(rec, options)
     if not events:
         raise ValueError("no step or impulse event found in the arrays")
+    if not -len(events) <= event < len(events):
+        raise ValueError(f"event {event} does not exist: {len(events)} event(s) were found "
+                         f"(0..{len(events) - 1})")
     return replace(EventData.from_event(rec, events[event]), **override)

@@ -29,6 +29,9 @@ def load_record(path: Path, data: DataSection, name: str | None = None) -> Recor
     :class:`UserError`, as is every problem with the file.
     """
     path = Path(path)
+    if path.is_dir():
+        raise UserError(f"{path}: is a folder; expected a log file (a folder of logs goes in "
+                        "a config's data.path)")
     if not path.is_file():
         raise UserError(f"{path}: file not found")
     fmt = format_of(path, data.format)

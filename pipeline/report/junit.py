@@ -107,7 +107,7 @@ def _recommended_case(rec: RecordDoc) -> ET.Element:
     """The record's recommended model: passes when its verdict is ok, else ``<skipped>``
     with the verdict and its flags (never green for a model to use with care)."""
     r = rec.recommended
-    case = _case(rec.name, f"recommended model ({r.method}, event {r.event})")
+    case = _case(rec.name, f"recommended model ({r.label}, event {r.event})")
     if r.verdict not in (None, "ok"):
         codes = ", ".join(f.code for f in r.flags) or "no flags"
         ET.SubElement(case, "skipped", {"message": f"verdict {r.verdict}: {codes}",

@@ -16,6 +16,7 @@ import numpy as np
 from ..consistency import static_map_note
 from ..record import in_time_unit
 from ..results import RecordResult
+from ..schema import fit_label
 from ..validate import event_simulation, validation_simulation
 from . import plots
 from .consistency_plots import consistency_figure, static_map_figure
@@ -105,6 +106,10 @@ def _consistency_context(res: RecordResult, mode: str, add, anchor: str, dpi: in
     return out
 
 
+def _label(f) -> str:
+    return fit_label(f.method, f.event, list(f.events))
+
+
 def _marks(diag: dict) -> list[tuple[float, float, str]]:
     """The points a method read (t63/y63, ...) for drawing."""
     out = []
@@ -141,7 +146,7 @@ def _ident_context(res: RecordResult, i: int, mode: str, add, anchor: str, dpi: 
     for order in sorted(groups, key=list(ORDER_TITLES).index):
         fits = groups[order]
         label = ORDER_TITLES.get(order, "best model")
-        curves = [(f"{f.method}: {f.model.text(3)}", event_simulation(f.model, rec, ev))
+        curves = [(f"{_label(f)}: {f.model.text(3)}", event_simulation(f.model, rec, ev))
                   for f in fits]
         marks = _marks(fits[0].diagnostics) if order == "first" else []
         out["figures"].append(add(
@@ -164,7 +169,7 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
         y = np.full(hi - lo, np.nan)
         for sl, sim in validation_simulation(f.model, rec, res.events, validation):
             y[sl.start - lo : sl.stop - lo] = sim
-        curves.append((f"{f.method} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y))
+        curves.append((f"{_label(f)} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y))
     return plots.overlay(rec, slice(lo, hi), curves,
                          f"Validation: measured vs {label}, simulated from each run's "
                          "operating point", events=res.events, roles=res.roles, dpi=dpi)

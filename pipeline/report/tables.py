@@ -15,7 +15,8 @@ from ..grade import answer, record_verdict
 from ..methods import REGISTRY
 from ..models import PARAMETERS, STRUCTURES, ProcessModel
 from ..record import Record, in_time_unit
-from ..results import RecordResult
+from ..results import UNBOUNDED, RecordResult
+from ..schema import fit_label
 
 
 @dataclass(frozen=True)
@@ -107,8 +108,10 @@ def with_ci(fit: Fit, name: str, record: Record | None = None) -> str:
     units, st = (record.units if record else None), fit.model.structure
     v = shown(name, float(fit.model.params[name]), units, st)
     ci = fit.ci95.get(name)
-    if not ci or ci[0] is None or ci[1] is None:
+    if not ci or name == "n":  # an order is snapped to an integer: no interval on it
         return _value(name, v)
+    if not all(b is not None and math.isfinite(b) and abs(b) <= UNBOUNDED for b in ci):
+        return f"{_value(name, v)} (unbounded)"
     half = (shown(name, float(ci[1]), units, st) - shown(name, float(ci[0]), units, st)) / 2
     return f"{_value(name, v)} ± {fmt(abs(half), 2)}"
 
@@ -195,7 +198,9 @@ def ranking_table(res: RecordResult, event: int) -> Table:
     for rank, f in enumerate(res.ranking(event), start=1):
         m, info = f.metrics, REGISTRY.get(f.method)
         t.rows.append([
-            Cell(str(rank), "num"), Cell(f.method, "code", note=info.title if info else ""),
+            Cell(str(rank), "num"),
+            Cell(fit_label(f.method, f.event, list(f.events)), "code",
+                 note=info.title if info else ""),
             Cell(f.verdict or "-", "verdict", note=", ".join(x.code for x in f.flags)),
             Cell(", ".join(f"{k}={with_ci(f, k, res.record)}" for k in _ordered(f.model.params)
                            if not (k == "delay" and f.model.delay == 0.0))),
@@ -219,17 +224,19 @@ def recommended_box(res: RecordResult) -> dict | None:
         interval = (f"[{fmt(ci[0])}, {fmt(ci[1])}]" if ci and None not in ci else "-")
         label = PARAMETERS[k].label if k in PARAMETERS else k
         units = rec.units if rec else None
-        if ci and None not in ci:
+        if ci and None not in ci and all(abs(b) <= UNBOUNDED for b in ci) and k != "n":
             lo, hi = sorted((shown(k, ci[0], units, st), shown(k, ci[1], units, st)))
             interval = f"[{fmt(lo)}, {fmt(hi)}]"
+        elif ci and k != "n":
+            interval = "unbounded"
         rows.rows.append([Cell(label), Cell(with_ci(fit, k, rec), "num"),
                           Cell(unit_of(k, rec, st)), Cell(interval, "num")])
     info = REGISTRY.get(fit.method)
     flags = list(fit.flags) + [f for f in res.flags if f not in fit.flags]
     reason = (res.recommendation.reason if res.recommendation and res.recommended is fit
               else "ranked best by the validation error (no recommendation was made)")
-    units = ", ".join(f"{k} in {unit_of(k, rec, st)}" for k in ("K", "T", "delay")
-                      if k in fit.model.params and unit_of(k, rec, st))
+    units = ", ".join(f"{k} in {unit_of(k, rec, st)}" for k in _ordered(fit.model.params)
+                      if unit_of(k, rec, st))
     return {
         "recommended": res.recommendation is not None and res.recommended is fit,
         "method": fit.method, "title": info.title if info else fit.method,
