@@ -13,7 +13,7 @@ from collections.abc import Callable
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import STRUCTURES, ProcessModel
-from ..refine_record import refine_event, result_parts
+from ..refine_record import mismatch, refine_event, result_parts
 from .registry import REGISTRY, MethodResult, identify, register
 
 #: The last event the graphical starts were computed for: ``identify(ev, "lsq_...")`` for
@@ -44,9 +44,9 @@ def refinement_id(structure: str) -> str:
 def _refinement(structure: str) -> Callable[..., MethodResult]:
     def method(ev: EventData, **context) -> MethodResult:
         """``context``: ``models`` (starts), ``state``, ``options`` (see refine_event)."""
-        if ev.response == "ramp" and not STRUCTURES[structure].integrating:
-            raise NotApplicable("the output ramps without settling (an integrating process): "
-                                "a self-regulating model has no gain for it")
+        reason = mismatch(structure, ev)
+        if reason:
+            raise NotApplicable(reason)
         if ev.dy == 0 or not math.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
             raise NotApplicable("the output did not change measurably (|y_ss - y0| <= 3 "
                                 "sigma)")
