@@ -160,7 +160,7 @@ def event_fit(record: Record, events: Sequence[Event], i: int, method: str, *,
     state at rest or estimated (:func:`pipeline.methods.identify`)."""
     ev = events[i]
     if states[i] != "rest" and carry_source(list(states), i) is not None \
-            and REGISTRY[method].event == ev.kind:
+            and REGISTRY[method].accepts(ev.kind):
         return span_fit(record, events, [i], method, REGISTRY[method].structures[0],
                         models=models, states=states, options=options)
     return identify(EventData.from_event(record, ev), method, models=models, state=states[i],

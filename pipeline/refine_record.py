@@ -30,6 +30,7 @@ from .models import STRUCTURES, ProcessModel
 from .record import Record
 from .refine import Refinement, RefineOptions, refine
 from .search import candidate_starts
+from .signal import smooth
 from .uncertainty import variance_factor
 from .validate import fit_start
 
@@ -64,6 +65,8 @@ def mismatch(structure: str, ev: Event | EventData) -> str | None:
       on the tail of a previous response still settling, ``tail``: the output goes on
       moving that way, and a ramp test on the window is no evidence of an integrator,
       whose responses end on steady ramps, never on tails);
+    * after a pulse, a self-regulating structure and an output that moves to a new level
+      and stays, or an integrating one and an output back on its baseline;
     * an integrating structure and a step whose output settles at a new level
       (``settled``, not a ramp against the baseline's line): after a step an integrator
       ramps at ``K du`` unless the step brought the input exactly to its balance point,
@@ -73,7 +76,13 @@ def mismatch(structure: str, ev: Event | EventData) -> str | None:
       then a lag coming to rest): a coincidence, not a model.
     """
     integrating = STRUCTURES[structure].integrating
-    if ev.kind != "step":
+    if ev.kind == "impulse":
+        if ev.response == "level_shift" and not integrating:
+            return ("the output moves to a new level after the pulse and stays there (an "
+                    "integrating process): a self-regulating model returns to its baseline")
+        if ev.response == "settling" and ev.settled and integrating:
+            return ("the output returns to its baseline after the pulse (a self-regulating "
+                    "process): an integrating model would stay shifted by K times the area")
         return None
     if ev.response == "ramp" and not integrating and not ev.tail:
         return ("the output ramps without settling (an integrating process): a "
@@ -82,6 +91,23 @@ def mismatch(structure: str, ev: Event | EventData) -> str | None:
         return ("the output settles at a new level after the step (a self-regulating "
                 "process): an integrating model would go on ramping at K du, unless the "
                 "input came exactly to its balance point and the output ramped before")
+    return None
+
+
+def unchanged(ev: EventData) -> str | None:
+    """Why the event shows no response to refine (None: it does): a step whose output did
+    not change by more than 3 noise standard deviations, a pulse without area or whose
+    smoothed response never leaves them."""
+    if ev.kind == "impulse":
+        if ev.area == 0 or not math.isfinite(ev.area):
+            return "the impulse has no area (the input did not leave its baseline)"
+        r = ev.y[ev.i0:] - ev.y0
+        peak = float(np.max(np.abs(smooth(r, ev.noise / max(float(np.max(np.abs(r))),
+                                                               1e-300))))) if r.size else 0.0
+        return None if peak > 3 * ev.noise else ("no measurable response to the pulse "
+                                                  "(peak <= 3 sigma)")
+    if ev.dy == 0 or not math.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
+        return "the output did not change measurably (|y_ss - y0| <= 3 sigma)"
     return None
 
 

@@ -211,19 +211,19 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
         r = fun(z)
         return r if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
 
-    cands = []
+    tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)
+    seen: dict[tuple, np.ndarray] = {}  # starts within a tenth of the distinct step: one
     for s in starts:
         try:
             z = space.to_z({**defaults(space.names), **s})
         except (KeyError, ValueError):
             continue
-        cands.append((0.5 * float(np.sum(safe(z) ** 2)), tuple(np.round(z, 6)), z))
-    if not cands:
-        z = space.to_z(defaults(space.names))
-        cands = [(0.5 * float(np.sum(safe(z) ** 2)), (), z)]
-    cands.sort(key=lambda c: c[0])
+        seen.setdefault(tuple(np.round(z / (0.1 * tol)).astype(int)), z)
+    if not seen:
+        seen = {(): space.to_z(defaults(space.names))}
+    cands = sorted(((0.5 * float(np.sum(safe(z) ** 2)), k, z) for k, z in seen.items()),
+                   key=lambda c: c[0])
     chosen: list[np.ndarray] = []
-    tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)
     for _, _, z in cands:
         if all(np.max(np.abs(z - c) / tol) > 1.0 for c in chosen):
             chosen.append(z)
