@@ -2,12 +2,15 @@
 the decision how its initial state is treated.
 
 * :func:`refine_event` - one event's window (the baseline before ``t0`` and the window
-  after it), started from the graphical methods' models;
+  after it), started from the graphical methods' models and the dead time where the
+  response leaves its noise band (:func:`band_exit`);
 * :func:`initial_state` - "rest" when the baseline before the step is settled, else
   "estimated": the output is still moving there (the previous event did not settle, or
-  the baseline drifts by more than its noise);
+  the baseline drifts by more than its noise); :func:`structure_state` makes it "steady"
+  for an integrating structure on a baseline segmentation measured as a straight ramp;
 * :func:`mismatch` - why a structure cannot describe an event's response at all (a
-  self-regulating model of a ramp, an integrating model of a step response that settles).
+  self-regulating model of a ramp or of a pulse's level shift, an integrating model of a
+  response that settles); :func:`unchanged` - an event with no response to refine.
 
 Estimating the state always would make the gain unidentifiable for a step at the first
 samples of a window: after the dead time a first-order lag's step response and its free
