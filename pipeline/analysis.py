@@ -34,7 +34,7 @@ from .refine import RefineOptions
 from .refine_record import event_states
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
-from .validate import heldout_residuals, identification_residuals, score
+from .validate import balance_point, heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
 MIN_WINDOW_SAMPLES = 10
@@ -127,7 +127,8 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
         else:
             fit = identify(data, mid)
         if fit.ok:
-            fit = replace(fit, metrics=score(fit.model, record, events, ev, validation))
+            fit = replace(fit, metrics=score(fit.model, record, events, ev, validation,
+                                             balance_point(fit)))
         out.append(fit)
     return out
 
@@ -145,7 +146,8 @@ def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
                        models=models, states=states, cross_validation=opt.events == "all",
                        options=opt.refine)
         if fit.ok:
-            metrics = score(fit.model, record, events, events[ident[0]], validation)
+            metrics = score(fit.model, record, events, events[ident[0]], validation,
+                            balance_point(fit))
             fit = replace(fit, metrics={**metrics, **fit.metrics})
         out.append(fit)
     return out
@@ -155,7 +157,8 @@ def _held_out(fit: Fit, record: Record, events, ident: list[int]) -> Fit:
     """With every event identifying: a one-event model's error on the other events."""
     if not fit.ok or fit.events or "mse_cross_validation" in fit.metrics:
         return fit
-    _, e = heldout_residuals(fit.model, record, events, [i for i in ident if i != fit.event])
+    _, e = heldout_residuals(fit.model, record, events, [i for i in ident if i != fit.event],
+                             balance_point(fit))
     return replace(fit, metrics={**fit.metrics, "mse_cross_validation": mse(e, 0 * e)})
 
 

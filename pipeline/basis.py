@@ -49,13 +49,18 @@ MAX_IIR_ORDER = 2
 
 
 def step_delayed(spec: Structure, p: dict[str, float], tt: np.ndarray) -> np.ndarray:
-    """Unit-gain step response with the dead time ``p["delay"]`` at times ``tt`` (0 for
-    ``tt <= delay``)."""
-    s = np.asarray(tt, dtype=np.float64) - float(p.get("delay", 0.0))
+    """Unit-gain step response with the dead time ``p["delay"]`` at times ``tt`` (0 before
+    the dead time), right-continuous at it as :meth:`pipeline.models.ProcessModel.
+    unit_step` (a lead-lag's jump is seen at the sample where the delayed step arrives,
+    also at a dead time of 0 or a whole number of samples)."""
+    tt = np.asarray(tt, dtype=np.float64)
+    delay = float(p.get("delay", 0.0))
+    s = tt - delay
     out = np.zeros_like(s)
-    pos = s > 0
+    eps = 1e-12 * max(1.0, abs(delay), float(np.max(np.abs(tt))) if tt.size else 0.0)
+    pos = s >= -eps
     if pos.any():
-        out[pos] = spec.step(p, s[pos])
+        out[pos] = spec.step(p, np.maximum(s[pos], 0.0))
     return out
 
 

@@ -33,7 +33,7 @@ from .methods import REGISTRY, identify
 from .models import ProcessModel
 from .record import Record
 from .refine import Refinement, RefineOptions, refine
-from .refine_record import carry_source, result_parts
+from .refine_record import carry_source, mismatch, result_parts, structure_state
 from .search import candidate_starts
 from .validate import fit_start, heldout_residuals
 
@@ -62,11 +62,13 @@ def span(events: Sequence[Event], ident: Sequence[int], states: Sequence[str],
     start = fit_start(origin.i_base, origin.i_start, origin.i_end)
     stop = events[ident[-1]].i_end
     mask = np.zeros(stop - start, bool)
-    for k, i in enumerate(ident):
-        if i in exclude:
-            continue
+    kept = [i for i in ident if i not in exclude]
+    for i in kept:
         ev = events[i]
-        a = fit_start(ev.i_base, ev.i_start, ev.i_end) if k == 0 else ev.i_start
+        # the first fitted event with its baseline (the state before it is seen), the
+        # others from their step on (their baselines are the previous windows' tails)
+        a = max(fit_start(ev.i_base, ev.i_start, ev.i_end), start) if i == kept[0] \
+            else ev.i_start
         mask[a - start : ev.i_end - start] = True
     label = ("estimated" if src is None else "rest" if src == first else
              f"carried from event {src}")
@@ -81,10 +83,11 @@ def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], s
     s = span(events, ident, states, exclude)
     sl = slice(s.start, s.stop)
     horizon = float(record.t[s.stop - 1] - record.t[s.start])
+    state = structure_state(structure, s.state, events[ident[0]])
     ref = refine(record.t[sl], record.u[sl], record.y[sl], structure, u_ref=s.u_ref,
                  starts=candidate_starts(structure, models, horizon), mask=s.mask,
-                 initial_state=s.state, options=options)
-    return replace(ref, initial_state=s.label), s
+                 initial_state=state, options=options)
+    return replace(ref, initial_state=state if state == "steady" else s.label), s
 
 
 def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int],
@@ -98,17 +101,21 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
         ref, _ = refine_span(record, events, ident, joint.model.structure,
                              models=[joint.model], states=states, exclude=(j,),
                              options=options)
-        _, e = heldout_residuals(ref.model, record, list(events), [j])
+        u0 = ref.u0 if ref.model.integrating else None
+        _, e = heldout_residuals(ref.model, record, list(events), [j], u0)
         errors.append(e)
-        folds.append({"event": j, "params": dict(ref.model.params),
+        folds.append({"event": j, "params": dict(ref.model.params), "u0": u0,
                       "mse": float(np.mean(e**2)) if e.size else math.nan})
     pooled = np.concatenate(errors) if errors else np.empty(0)
     return (float(np.mean(pooled**2)) if pooled.size else math.nan), folds
 
 
-def fold_models(structure: str, folds: Sequence[dict]) -> list[tuple[int, ProcessModel]]:
-    """The fold models stored by :func:`cross_validate` (in a fit's diagnostics)."""
-    return [(int(f["event"]), ProcessModel(structure, dict(f["params"]))) for f in folds]
+def fold_models(structure: str, folds: Sequence[dict]
+                ) -> list[tuple[int, ProcessModel, float | None]]:
+    """The fold models stored by :func:`cross_validate` (in a fit's diagnostics): held-out
+    event, model, and an integrating model's balance point (None otherwise)."""
+    return [(int(f["event"]), ProcessModel(structure, dict(f["params"])), f.get("u0"))
+            for f in folds]
 
 
 def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], method: str,
@@ -123,6 +130,11 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
     if all(abs(events[i].y_ss - events[i].y0) <= 3 * events[i].noise for i in ident):
         return Fit(method, ident[0], "not_applicable", "the output did not change measurably "
                    "(|y_ss - y0| <= 3 sigma)", events=many)
+    reasons = [(i, mismatch(structure, events[i])) for i in ident]
+    i, reason = next(((i, r) for i, r in reasons if r), (None, None))
+    if reason:
+        return Fit(method, ident[0], "not_applicable", f"event {i}: {reason}" if many else
+                   reason, events=many)
     try:
         ref, s = refine_span(record, events, ident, structure, models=models, states=states,
                              options=options)
@@ -148,7 +160,7 @@ def event_fit(record: Record, events: Sequence[Event], i: int, method: str, *,
     state at rest or estimated (:func:`pipeline.methods.identify`)."""
     ev = events[i]
     if states[i] != "rest" and carry_source(list(states), i) is not None \
-            and REGISTRY[method].event == ev.kind:
+            and REGISTRY[method].accepts(ev.kind):
         return span_fit(record, events, [i], method, REGISTRY[method].structures[0],
                         models=models, states=states, options=options)
     return identify(EventData.from_event(record, ev), method, models=models, state=states[i],

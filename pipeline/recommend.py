@@ -43,7 +43,7 @@ from .fit import Fit
 from .joint import fold_models
 from .results import Recommendation
 from .uncertainty import variance_factor
-from .validate import heldout_residuals
+from .validate import balance_point, heldout_residuals
 
 #: Standard errors within which a simpler structure counts as good as the best (95 %).
 Z_STRUCTURE = 1.96
@@ -104,15 +104,15 @@ def criterion(result) -> str:
 
 def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
     """``(sample indices, errors)`` of a fit on the data held out from it."""
-    rec, events = result.record, list(result.events)
+    rec, events, u0 = result.record, list(result.events), balance_point(fit)
     if result.validation_events:
-        return heldout_residuals(fit.model, rec, events, result.validation_events)
+        return heldout_residuals(fit.model, rec, events, result.validation_events, u0)
     if fit.diagnostics.get("folds"):
-        parts = [heldout_residuals(m, rec, events, [j])
-                 for j, m in fold_models(fit.model.structure, fit.diagnostics["folds"])]
+        parts = [heldout_residuals(m, rec, events, [j], b)
+                 for j, m, b in fold_models(fit.model.structure, fit.diagnostics["folds"])]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     others = [i for i in result.identification_events if i != fit.event]
-    return heldout_residuals(fit.model, rec, events, others)
+    return heldout_residuals(fit.model, rec, events, others, u0)
 
 
 def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN

@@ -9,14 +9,16 @@ The model driven by the measured input (exact zero-order hold, fractional dead t
 is fitted by minimising the simulation (output) error over the chosen samples, the
 output-error / prediction-error method with an output-error noise model (Ljung, System
 Identification, 2nd ed., 1999, sec. 4.2 and 7.2). The gain ``K``, the offset ``y0``, the
-free-response coefficients ``c_j`` (the initial state, when it is estimated) and, for an
-integrating structure, the input balance point enter linearly, so they are solved by
-linear least squares inside the residual function: separable least squares, or variable
-projection (G. H. Golub, V. Pereyra, "The differentiation of pseudo-inverses and nonlinear
-least squares problems whose variables separate", SIAM J. Numer. Anal. 10(2):413-432,
-1973). The nonlinear search (``scipy.optimize.least_squares``, trust-region reflective,
-bounded) only sees the time constants, damping, order and dead time, on log scale where
-a parameter is positive (:mod:`pipeline.search`). It runs from the best few of many
+free-response coefficients ``c_j`` (the initial state, when it is estimated), for an
+integrating structure with an estimated state the input balance point (at rest the model
+is in equilibrium at ``u_ref``), and ``K Tz`` (a zero, :data:`LINEAR_PARAMS`) enter
+linearly, so they are solved by linear least squares inside the residual function:
+separable least squares, or variable projection (G. H. Golub, V. Pereyra, "The
+differentiation of pseudo-inverses and nonlinear least squares problems whose variables
+separate", SIAM J. Numer. Anal. 10(2):413-432, 1973). The nonlinear search
+(``scipy.optimize.least_squares``, trust-region reflective, bounded) only sees the lags,
+damping, order and dead time, on log scale where a parameter is positive
+(:mod:`pipeline.search`). It runs from the best few of many
 candidate starts (the graphical methods' models, and templates scaled to their time
 scales, :func:`pipeline.search.candidate_starts`) and keeps the best.
 An order ``n`` is searched as a real number, then fixed at the better of the two integers
@@ -39,21 +41,19 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from . import basis
 from .lstsq import block_means, blocks, project_out, solve
 from .models import STRUCTURES, ProcessModel
-from .search import Space, defaults, search_space, snap
+from .search import Run, Space, multistart, search_space, snap
 from .uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
 
-#: Iterations of the pilot runs from each start (the best one then runs to convergence).
-PILOT_NFEV = 3
-#: Starts count as distinct when a log-scale parameter differs by this (a factor 1.65) or a
-#: linear one by this share of the window.
-DISTINCT_LOG, DISTINCT_LINEAR = 0.5, 0.05
-#: Relative tolerances of the search (cost and step): far below a noise-limited precision.
-FTOL = 1e-5
+#: Parameters the response is affine in: a zero's time constant (the numerator
+#: ``K (Tz s + 1)`` makes the response ``K x(Tz=0) + K Tz (x(Tz=1) - x(Tz=0))``). The search
+#: solves them with the gain by linear least squares (variable projection), so it sees only
+#: the lags and the dead time and no start has to guess a zero: from starts whose zero is
+#: off the search fell into a pure-gain local minimum (a lead-lag with Tz ~ T).
+LINEAR_PARAMS = ("Tz",)
 #: Degrees of freedom of the interval quantile at least: fewer effective samples mean the
 #: residuals are a systematic misfit, not noise (the standard error already grew by the
 #: variance factor; grading reads ``n_eff`` to say so).
@@ -130,9 +130,22 @@ class _Problem:
     counts: np.ndarray  # fit samples per row
     dt: float | None
     horizon: float
-    estimate_state: bool
+    state: str  # "rest", "estimated" or "steady" (see refine)
     free_lags: int
     full: bool = False  # every sample of the span is a fit sample
+    linear: tuple[str, ...] = ()  # LINEAR_PARAMS solved inside the residual (the search)
+
+    @property
+    def estimate_state(self) -> bool:
+        return self.state == "estimated"
+
+    @property
+    def balance(self) -> bool:
+        """Whether the input balance point of an integrating structure is estimated: with
+        the state or on a steady ramp, not at rest (at rest the model is in equilibrium
+        at ``u_ref``; a free balance point would let a ramp before the step pass for
+        rest, and a lag's settling for an integrator whose input came to balance)."""
+        return STRUCTURES[self.structure].integrating and self.state != "rest"
 
     def rows(self, a: np.ndarray) -> np.ndarray:
         """Criterion rows of span columns ``a`` (or of a span vector)."""
@@ -142,12 +155,24 @@ class _Problem:
         w = np.sqrt(self.counts) if m.ndim == 1 else np.sqrt(self.counts)[:, None]
         return np.add.reduceat(m, self.starts, axis=0) / w
 
+    def design(self, p: Mapping[str, float]) -> np.ndarray:
+        """The span columns of the linear solve: the forced response (with ``linear``: at
+        0 and the change per unit of each), then :meth:`columns`' nuisance columns."""
+        if not self.linear:
+            x, nuis = self.columns(p)
+            return np.column_stack([x, nuis])
+        x0, nuis = self.columns({**p, **dict.fromkeys(self.linear, 0.0)})
+        xs = [self.columns({**p, **dict.fromkeys(self.linear, 0.0), n: 1.0})[0] - x0
+              for n in self.linear]
+        return np.column_stack([x0, *xs, nuis])
+
     def columns(self, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """``(x, nuisance columns)`` over the whole span."""
         x = basis.forced_response(self.structure, dict(p), self.t_rel, self.du, self.dt)
         cols = [np.ones_like(x)]
-        if STRUCTURES[self.structure].integrating:
-            cols.append(basis.offset_response(self.structure, dict(p), self.t_rel))
+        if self.balance:  # an input offset from the start: lagged, or a ramp already steady
+            cols.append(basis.offset_response(self.structure, dict(p), self.t_rel)
+                        if self.estimate_state else self.t_rel)
         if self.estimate_state:
             b = basis.free_basis(self.structure, dict(p), self.t_rel, self.horizon,
                                  self.free_lags)
@@ -160,12 +185,17 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
            fixed: Mapping[str, float] | None = None, options: RefineOptions | None = None
            ) -> Refinement:
     """Fit ``structure`` to ``y`` over the span ``t, u`` (the model starts at the first
-    sample: at rest at ``u_ref`` when ``initial_state`` is "rest", else with its state
-    estimated); ``mask`` selects the samples in the criterion (all by default);
+    sample: at rest at ``u_ref`` when ``initial_state`` is "rest", with its state
+    estimated when "estimated", and an integrating structure with "steady" on a steady
+    ramp: its lags at equilibrium, the output moving at ``K (u_ref - u0)`` with the
+    balance point ``u0`` estimated); ``mask`` selects the samples in the criterion (all by default);
     ``starts`` are parameter sets to start from (missing ones: :func:`pipeline.search.
     defaults`), ``fixed`` parameters are held. Pure: numpy arrays in, a
     :class:`Refinement` out."""
     opt = options or RefineOptions()
+    if initial_state not in ("rest", "estimated", "steady") or (
+            initial_state == "steady" and not STRUCTURES[structure].integrating):
+        raise ValueError(f"initial state {initial_state!r} for a {structure} model")
     t = np.asarray(t, dtype=np.float64)
     mask = np.ones(t.size, bool) if mask is None else np.asarray(mask, bool)
     dt = basis.uniform_step(t)
@@ -173,7 +203,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     starts_, counts = blocks(mask, opt.max_rows)
     y = np.asarray(y, np.float64)
     prob = _Problem(structure, t - t[0], np.asarray(u, np.float64) - u_ref, y, mask, starts_,
-                    counts, dt, span, initial_state != "rest", opt.free_lags,
+                    counts, dt, span, initial_state, opt.free_lags,
                     bool(mask.all()))
     prob = replace(prob, y=prob.rows(y))
     y_fit = y[mask]
@@ -182,6 +212,9 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     names = [n for n in spec.params if n != "K" and n not in fixed]
     dt_eff = dt or float(np.median(np.diff(t)))
     space = search_space(structure, names, dt_eff, span)
+    search = replace(prob, linear=tuple(n for n in names if n in LINEAR_PARAMS))
+    searched = search_space(structure, [n for n in names if n not in search.linear], dt_eff,
+                            span)
     ints = [n for n in names if n in INTEGER_PARAMS]
     m = math.ceil(t.size / opt.max_rows)
     if dt is not None and m > 2 and opt.coarse:
@@ -191,112 +224,85 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
                    fixed=fixed, options=replace(opt, bootstrap=0, coarse=False))
         start = {n: c.model.params[n] for n in names}
         if ints:
-            best, nfev = _integer(prob, structure, space, fixed, start, ints, dt_eff, span,
-                                  opt, polish=True)
+            best = _integer(search, searched, fixed, start, ints, dt_eff, span, opt,
+                            polish=True)
         else:
-            best = _multistart(prob, space, fixed, [start], replace(opt, n_starts=1))[:3]
-            nfev = best[2]
-        nfev, runs = nfev + c.nfev, c.n_runs
+            best = _multistart(search, searched, fixed, [start], 1, opt.max_nfev)
+        nfev, runs = best.nfev + c.nfev, c.n_runs
     else:
-        best = _multistart(prob, space, fixed, starts, opt)
-        nfev, runs = best[2], best[3]
+        best = _multistart(search, searched, fixed, starts, opt.n_starts, opt.max_nfev)
+        nfev, runs = best.nfev, best.runs
         if ints:
-            best, extra = _integer(prob, structure, space, fixed, best[0], ints, dt_eff, span,
-                                   opt)
-            nfev += extra
-    p = {**fixed, **snap(space, best[0])}
+            best = _integer(search, searched, fixed, best.params, ints, dt_eff, span, opt)
+            nfev += best.nfev
+    p = {**fixed, **snap(space, {**best.params, **_linear_values(search, {**fixed,
+                                                                          **best.params})})}
     ref = _finish(prob, space, p, y_fit, initial_state, u_ref, opt, nfev, runs)
     if opt.bootstrap > 0:
-        ref = _bootstrap(prob, space, ref, fixed, opt)
+        ref = _bootstrap(search, searched, ref, fixed, opt)
     return ref
 
 
+def _solution(prob: _Problem, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """``(criterion rows of the design, linear coefficients)`` at ``p``."""
+    a = prob.rows(prob.design(p))
+    return a, solve(a, prob.y)[0]
+
+
 def _residual(prob: _Problem, p: Mapping[str, float]) -> np.ndarray:
-    x, nuis = prob.columns(p)
-    a = prob.rows(np.column_stack([x, nuis]))
-    c, _ = solve(a, prob.y)
+    a, c = _solution(prob, p)
     return prob.y - a @ c
 
 
-def _multistart(prob, space: Space, fixed, starts, opt: RefineOptions):
-    """``(params, cost, nfev, runs)`` of the best least-squares run from the
-    ``opt.n_starts`` best distinct candidate starts."""
+def _linear_values(prob: _Problem, p: Mapping[str, float]) -> dict[str, float]:
+    """The :data:`LINEAR_PARAMS` of the linear solve at ``p``: coefficient over gain."""
+    if not prob.linear:
+        return {}
+    _, c = _solution(prob, p)
+    k = float(c[0]) or 1e-300
+    return {n: float(c[1 + i]) / k for i, n in enumerate(prob.linear)}
+
+
+def _multistart(prob: _Problem, space: Space, fixed, starts, n_starts: int, max_nfev: int
+                ) -> Run:
+    """The best least-squares run (:func:`pipeline.search.multistart`) of the residual
+    over ``space`` with ``fixed`` held."""
     if not space.names:
-        return {}, 0.5 * float(np.sum(_residual(prob, fixed) ** 2)), 1, 0
-
-    def fun(z):
-        r = _residual(prob, {**fixed, **space.from_z(z)})
-        return r if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
-
-    cands = []
-    for s in starts:
-        try:
-            z = space.to_z({**defaults(space.names), **s})
-        except (KeyError, ValueError):
-            continue
-        cands.append((0.5 * float(np.sum(fun(z) ** 2)), tuple(np.round(z, 6)), z))
-    if not cands:
-        z = space.to_z(defaults(space.names))
-        cands = [(0.5 * float(np.sum(fun(z) ** 2)), (), z)]
-    cands.sort(key=lambda c: c[0])
-    chosen: list[np.ndarray] = []
-    tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)
-    for _, _, z in cands:
-        if all(np.max(np.abs(z - c) / tol) > 1.0 for c in chosen):
-            chosen.append(z)
-        if len(chosen) == opt.n_starts:
-            break
-    nfev = len(cands)
-
-    def run(z0, max_nfev):
-        nonlocal nfev
-        res = least_squares(fun, z0, bounds=(space.lo, space.hi), method="trf",
-                            max_nfev=max_nfev, x_scale=1.0, ftol=FTOL, xtol=FTOL)
-        nfev += res.nfev + (res.njev or 0) * len(z0)
-        return res
-
-    # a few iterations from each start, then the best one to convergence
-    runs = [run(z0, PILOT_NFEV) for z0 in chosen] if len(chosen) > 1 else []
-    best = min(runs, key=lambda r: r.cost) if runs else None
-    if best is None or best.status == 0:  # 0: stopped by max_nfev
-        best = run(chosen[0] if best is None else best.x, opt.max_nfev)
-    return space.from_z(best.x), float(best.cost), nfev, len(chosen)
+        return Run({}, 0.5 * float(np.sum(_residual(prob, fixed) ** 2)), 1, 0)
+    return multistart(lambda z: _residual(prob, {**fixed, **space.from_z(z)}), space, starts,
+                      n_starts, max_nfev)
 
 
-def _integer(prob, structure, space: Space, fixed, p_best, ints, dt, span, opt,
-             polish: bool = False):
+def _integer(prob: _Problem, space: Space, fixed, p_best, ints, dt, span, opt,
+             polish: bool = False) -> Run:
     """Refit with each integer parameter fixed at the integers around its real optimum
     (``polish``: at the value it has, an integer already)."""
     options = [[round(p_best[n])] if polish or abs(p_best[n] - round(p_best[n])) < 0.2 else
                [math.floor(p_best[n]), math.ceil(p_best[n])] for n in ints]
-    rest = [n for n in space.names if n not in ints]
-    sub = search_space(structure, rest, dt, span)
+    sub = search_space(prob.structure, [n for n in space.names if n not in ints], dt, span)
     best, nfev = None, 0
+    bounds = STRUCTURES[prob.structure].bounds
     for combo in itertools.product(*options):
-        lo_hi = [STRUCTURES[structure].bounds.get(n, (-math.inf, math.inf)) for n in ints]
-        vals = {n: float(min(max(v, lo), hi)) for n, v, (lo, hi) in
-                zip(ints, combo, lo_hi, strict=True)}
-        fx = {**fixed, **vals}
-        p, cost, k, _ = _multistart(prob, sub, fx, [p_best], RefineOptions(
-            n_starts=1, max_nfev=opt.max_nfev))
-        nfev += k
-        if best is None or cost < best[1]:
-            best = ({**p, **vals}, cost)
-    return best, nfev
+        vals = {n: float(min(max(v, bounds[n][0]), bounds[n][1]))
+                for n, v in zip(ints, combo, strict=True)}
+        run = _multistart(prob, sub, {**fixed, **vals}, [p_best], 1, opt.max_nfev)
+        nfev += run.nfev
+        if best is None or run.cost < best.cost:
+            best = Run({**run.params, **vals}, run.cost, 0, 0)
+    return replace(best, nfev=nfev)
 
 
 def _finish(prob: _Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p``."""
-    x, nuis = prob.columns(p)
-    a = np.column_stack([x, nuis])
+    a = prob.design(p)
     c, rank = solve(prob.rows(a), prob.y)
     rows_resid = prob.y - prob.rows(a) @ c
     fitted = a[prob.mask] @ c
     resid = y_fit - fitted
     K, y0 = float(c[0]), float(c[1])
     u0 = u_ref
-    if STRUCTURES[prob.structure].integrating and K != 0:
+    if prob.balance and K != 0:
         u0 = u_ref - float(c[2]) / K
     free = list(space.names)
     jac = _profiled_jacobian(prob, space, p, K)
@@ -342,7 +348,7 @@ def _profiled_jacobian(prob: _Problem, space: Space, p, K: float) -> np.ndarray:
     cols = []
     for i in range(z0.size):
         h = 1e-5 * max(1.0, abs(z0[i]))
-        up, dn = min(z0[i] + h, space.hi[i]), max(z0[i] - h, space.lo[i])
+        up, dn = min(z0[i] + h, space.hi[i]), max(z0[i] - h, space.lo_z[i])
         zu, zd = z0.copy(), z0.copy()
         zu[i], zd[i] = up, dn
         cols.append((prof(zu)[0] - prof(zd)[0]) / max(up - dn, 1e-300))
@@ -374,11 +380,9 @@ def _bootstrap(prob: _Problem, space: Space, ref: Refinement, fixed, opt) -> Ref
     for e in block_bootstrap_residuals(ref.residuals, opt.bootstrap, opt.seed):
         y_span[prob.mask] = ref.fitted + e
         b = replace(prob, y=prob.rows(y_span))
-        p, _, _, _ = _multistart(b, space, fixed, [start], RefineOptions(
-            n_starts=1, max_nfev=opt.max_nfev))
-        x, nuis = b.columns({**fixed, **p})
-        c, _ = solve(b.rows(np.column_stack([x, nuis])), b.y)
-        draw = {**ref.model.params, **p, "K": float(c[0])}
+        p = _multistart(b, space, fixed, [start], 1, opt.max_nfev).params
+        p = {**p, **_linear_values(b, {**fixed, **p})}
+        draw = {**ref.model.params, **p, "K": float(_solution(b, {**fixed, **p})[1][0])}
         draws.append(_canonical(prob.structure, draw, {}, {})[0])
     a = (1 - opt.level) / 2
     ci = {n: (float(np.quantile([d[n] for d in draws], a)),

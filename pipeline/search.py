@@ -8,19 +8,31 @@
   time the graphical models read, and to the window's own time scales, for a structure
   no graphical model resembles. Written over the structure table (its step response,
   bounds and time scale) and the parameter table's unit kinds, so a new structure gets
-  starts with no edit here.
+  starts with no edit here;
+* :func:`multistart` - the search itself: a few trust-region iterations from each of the
+  best distinct starts, then the best of them to convergence
+  (``scipy.optimize.least_squares``, trust-region reflective, bounded).
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from .models import PARAMETERS, STRUCTURES, ProcessModel
+
+#: Iterations of the pilot runs from each start (the best one then runs to convergence).
+PILOT_NFEV = 3
+#: Starts count as distinct when a log-scale parameter differs by this (a factor 1.65) or a
+#: linear one by this share of the window.
+DISTINCT_LOG, DISTINCT_LINEAR = 0.5, 0.05
+#: Relative tolerances of the search (cost and step): far below a noise-limited precision.
+FTOL = 1e-5
 
 #: Start values of dimensionless parameters (templates; the time parameters are scaled).
 DIMENSIONLESS_STARTS: dict[str, tuple[float, ...]] = {"zeta": (0.4, 1.0, 2.0),
@@ -30,13 +42,16 @@ DIMENSIONLESS_STARTS: dict[str, tuple[float, ...]] = {"zeta": (0.4, 1.0, 2.0),
 @dataclass(frozen=True)
 class Space:
     """The searched parameters (``names``), which are on log scale, the scale of the
-    linear ones, and the bounds, all in search coordinates ``z``."""
+    linear ones, and the bounds, all in search coordinates ``z``; ``floor`` (in parameter
+    units) is where a linear parameter whose search range reaches below it is held (the
+    dead time: see :func:`search_space`)."""
 
     names: tuple[str, ...]
     log: np.ndarray
     scale: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
+    floor: np.ndarray
 
     def to_z(self, p: Mapping[str, float]) -> np.ndarray:
         v = np.array([float(p[n]) for n in self.names])
@@ -45,21 +60,32 @@ class Space:
                        (self.hi - self.lo))
 
     def from_z(self, z: np.ndarray) -> dict[str, float]:
-        v = np.where(self.log, np.exp(z), z * self.scale)
+        v = np.maximum(np.where(self.log, np.exp(z), z * self.scale), self.floor)
         return {n: float(x) for n, x in zip(self.names, v, strict=True)}
+
+    @property
+    def lo_z(self) -> np.ndarray:
+        """The lowest search coordinate that is not held at the floor."""
+        return np.maximum(self.lo, np.where(self.log, -np.inf, self.floor / self.scale))
 
 
 def search_space(structure: str, names: Sequence[str], dt: float, span: float) -> Space:
     """Log scale for positive parameters; practical bounds from the sample time and the
     span (a time constant far below the sample time or far above the record is not
-    determined by the data), inside the structure table's bounds."""
+    determined by the data), inside the structure table's bounds. For a structure whose
+    step response jumps at its dead time (a lead-lag: :func:`jumps`) the dead time's range
+    starts half a sample below 0, where it is held at 0 (``floor``): the jump is seen at
+    the sample where it arrives, so the cost at a dead time of 0 is reached only from
+    below, never from inside the bound (elsewhere a flat stretch would trap the search)."""
     spec = STRUCTURES[structure]
-    log, scale, lo, hi = [], [], [], []
+    below = 0.5 * dt if jumps(structure) else 0.0
+    log, scale, lo, hi, floor = [], [], [], [], []
     for name in names:
         b_lo, b_hi = spec.bounds.get(name, (-math.inf, math.inf))
         kind = PARAMETERS[name].kind if name in PARAMETERS else "dimensionless"
+        floor.append(max(b_lo, 0.0) if name == "delay" else -math.inf)
         if name == "delay":
-            rng = (max(b_lo, 0.0), min(b_hi, 0.9 * span))
+            rng = (max(b_lo, 0.0) - below, min(b_hi, 0.9 * span))
         elif kind == "time":
             rng = (max(b_lo, dt / 100) if b_lo >= 0 else max(b_lo, -100 * span),
                    min(b_hi, 100 * span))
@@ -74,20 +100,31 @@ def search_space(structure: str, names: Sequence[str], dt: float, span: float) -
         lo.append(math.log(rng[0]) if is_log else rng[0] / s)
         hi.append(math.log(rng[1]) if is_log else rng[1] / s)
     return Space(tuple(names), np.array(log, bool), np.array(scale), np.array(lo),
-                  np.array(hi))
+                 np.array(hi), np.array(floor))
 
 
-def candidate_starts(structure: str, models: Sequence[ProcessModel], horizon: float
-                     ) -> list[dict[str, float]]:
+def jumps(structure: str) -> bool:
+    """Whether the structure's step response jumps at the dead time (a numerator of the
+    denominator's degree: direct feedthrough), judged on its first template."""
+    nd = STRUCTURES[structure].num_den(templates(structure, 1.0, 0.0)[0])
+    return nd is not None and len(nd[0]) == len(nd[1]) and nd[0][0] != 0
+
+
+def candidate_starts(structure: str, models: Sequence[ProcessModel], horizon: float,
+                     delays: Sequence[float] = ()) -> list[dict[str, float]]:
     """Starts for a structure: every given model of that structure as it is, and for each
     distinct (time scale, dead time) among all given models, and the time scales
     ``horizon / 20`` and ``horizon / 5`` of the window itself (a structure no given model
     resembles), the templates of the structure scaled to it (see :func:`templates`), with
-    that dead time and with half the time scale more."""
+    that dead time and with half the time scale more. ``delays``: dead times read off the
+    data (:func:`pipeline.refine_record.band_exit`), combined with every time scale: a
+    response that jumps at its dead time (a lead-lag) has a cost that is discontinuous
+    in the dead time at every sample, which the search cannot cross."""
     out = [dict(m.params) for m in models if m.structure == structure]
     scales = {(_round2(m.time_scale), _round2(m.delay)) for m in models
               if math.isfinite(m.time_scale) and m.time_scale > 0}
     scales |= {(horizon / 20, 0.0), (horizon / 5, 0.0)}
+    scales |= {(tau, float(d)) for tau, _ in list(scales) for d in delays}
     for tau, delay in sorted(scales):
         for d in (delay, delay + tau / 2):  # a dead time the readings missed
             out.extend(templates(structure, tau, d))
@@ -147,7 +184,63 @@ def snap(space: Space, p: Mapping[str, float]) -> dict[str, float]:
     z = space.to_z(p)
     tol = 1e-6 * (space.hi - space.lo)
     for i, n in enumerate(space.names):
-        for b in (space.lo[i], space.hi[i]):
+        for b in (space.lo_z[i], space.hi[i]):
             if abs(z[i] - b) <= tol[i]:
                 out[n] = float(math.exp(b) if space.log[i] else b * space.scale[i])
     return out
+
+
+@dataclass(frozen=True)
+class Run:
+    """The best least-squares run: its parameters, cost (half the sum of squares), the
+    residual evaluations it took and the number of starts tried."""
+
+    params: dict[str, float]
+    cost: float
+    nfev: int
+    runs: int
+
+
+def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
+               starts: Sequence[Mapping[str, float]], n_starts: int, max_nfev: int) -> Run:
+    """Minimise ``|fun(z)|^2`` over ``space`` from the ``n_starts`` best distinct
+    ``starts`` (parameters a start lacks: :func:`defaults`): :data:`PILOT_NFEV`
+    iterations from each, then the best one to convergence. ``fun`` returns the residual
+    vector at search coordinates ``z``."""
+    def safe(z):
+        r = fun(z)
+        return r if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
+
+    tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)
+    seen: dict[tuple, np.ndarray] = {}  # starts within a tenth of the distinct step: one
+    for s in starts:
+        try:
+            z = space.to_z({**defaults(space.names), **s})
+        except (KeyError, ValueError):
+            continue
+        seen.setdefault(tuple(np.round(z / (0.1 * tol)).astype(int)), z)
+    if not seen:
+        seen = {(): space.to_z(defaults(space.names))}
+    cands = sorted(((0.5 * float(np.sum(safe(z) ** 2)), k, z) for k, z in seen.items()),
+                   key=lambda c: c[0])
+    chosen: list[np.ndarray] = []
+    for _, _, z in cands:
+        if all(np.max(np.abs(z - c) / tol) > 1.0 for c in chosen):
+            chosen.append(z)
+        if len(chosen) == n_starts:
+            break
+    nfev = len(cands)
+
+    def run(z0, limit):
+        nonlocal nfev
+        res = least_squares(safe, z0, bounds=(space.lo, space.hi), method="trf",
+                            max_nfev=limit, x_scale=1.0, ftol=FTOL, xtol=FTOL)
+        nfev += res.nfev + (res.njev or 0) * len(z0)
+        return res
+
+    # a few iterations from each start, then the best one to convergence
+    runs = [run(z0, PILOT_NFEV) for z0 in chosen] if len(chosen) > 1 else []
+    best = min(runs, key=lambda r: r.cost) if runs else None
+    if best is None or best.status == 0:  # 0: stopped by max_nfev
+        best = run(chosen[0] if best is None else best.x, max_nfev)
+    return Run(space.from_z(best.x), float(best.cost), nfev, len(chosen))

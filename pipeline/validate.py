@@ -3,7 +3,8 @@
 * ``ise`` - integral of the squared error over the identification event window (seed 002
   eq. 25), with ``mse_identification`` over the same samples; the model starts at rest at
   the event's operating point ``(u0, y0)`` (seed 001: "x(0) = y0"), as the graphical
-  methods assume (:func:`event_simulation`);
+  methods assume (:func:`event_simulation`; an integrating model on the baseline's line,
+  its drift going on, as the integrating methods read it);
 * ``mse_validation`` - mean squared error (seed 001's J) over all validation samples, and
   ``fit_percent``, MATLAB ``compare``'s NRMSE fit over them.
 
@@ -17,6 +18,14 @@ input balance point does to it), and only the validation samples after it are sc
 (MATLAB ``compare`` with ``InitialCondition`` estimated plays the same role; Ljung, System
 Identification, 2nd ed., sec. 16.6). A plant that is still moving when a validation step
 comes is no longer scored on a false start from rest.
+
+An integrating model stands still only at its input balance point, which the first event's
+input level need not be (a motor that already turns): it starts on the steady ramp its
+balance point gives (:func:`ramp_before`: ``K (u0 - u_balance)`` with a refinement's
+fitted balance point, :func:`balance_point`; else the drift segmentation measured), its
+lag at equilibrium, so a ramp running before the first step is the model's, not a drift
+the warm-up has to extrapolate (and a lag started at rest off its balance would add a
+start-up transient that the warm-up's drift fit would extrapolate over the whole run).
 """
 
 from __future__ import annotations
@@ -32,9 +41,30 @@ from .uncertainty import variance_factor
 
 
 def event_simulation(model: ProcessModel, record: Record, ev: Event) -> np.ndarray:
-    """Model output over the event window, started at rest at the event's (u0, y0)."""
+    """Model output over the event window, started at rest at the event's (u0, y0); an
+    integrating model's on the baseline's line (``y0 + drift (t - t0)``: the ramp before
+    the step goes on, as the integrating methods read the response against it)."""
     sl = slice(ev.i_start, ev.i_end)
-    return simulate(model, record.t[sl], record.u[sl], ev.u0, ev.y0)
+    sim = simulate(model, record.t[sl], record.u[sl], ev.u0, ev.y0)
+    return sim + ev.drift * (record.t[sl] - ev.t0) if model.integrating else sim
+
+
+def balance_point(fit) -> float | None:
+    """The input balance point a least-squares refinement of an integrating structure
+    fitted (its ``u0``); None for any other fit."""
+    if fit.model is None or not fit.model.integrating or "mse_fit" not in fit.diagnostics:
+        return None
+    u0 = fit.diagnostics.get("u0")
+    return None if u0 is None else float(u0)
+
+
+def ramp_before(model: ProcessModel, first: Event, balance: float | None = None) -> float:
+    """The output's slope before the first event under the model: for an integrating
+    model ``K (u0 - balance)`` with its balance point given, else the first event's
+    measured drift; 0 for a self-regulating model (at rest)."""
+    if not model.integrating:
+        return 0.0
+    return model.K * (first.u0 - balance) if balance is not None else first.drift
 
 
 def validation_runs(events: list[Event], validation: list[int]) -> list[tuple[int, int, Event]]:
@@ -50,12 +80,16 @@ def validation_runs(events: list[Event], validation: list[int]) -> list[tuple[in
 
 
 def continuous_simulation(model: ProcessModel, record: Record, events: list[Event],
-                          stop: int | None = None) -> np.ndarray:
+                          stop: int | None = None, balance: float | None = None
+                          ) -> np.ndarray:
     """The model driven by the measured input from the first sample of the record (to
-    ``stop``), at rest at the operating point of the first event."""
+    ``stop``), at rest at the operating point of the first event (an integrating model on
+    the steady ramp of its balance point, :func:`ramp_before`)."""
     sl = slice(0, record.n_samples if stop is None else stop)
-    first = events[0]
-    return simulate(model, record.t[sl], record.u[sl], first.u0, first.y0)
+    first, t = events[0], record.t[sl]
+    sim = simulate(model, t, record.u[sl], first.u0, first.y0)
+    slope = ramp_before(model, first, balance)
+    return sim + slope * (t - first.t0) if slope else sim
 
 
 def warmup_correction(model: ProcessModel, t: np.ndarray, error: np.ndarray,
@@ -94,13 +128,14 @@ def warmup(events: list[Event], first: Event) -> slice:
 
 
 def validation_simulation(model: ProcessModel, record: Record, events: list[Event],
-                          validation: list[int]) -> list[tuple[slice, np.ndarray]]:
+                          validation: list[int], balance: float | None = None
+                          ) -> list[tuple[slice, np.ndarray]]:
     """``(samples, simulated output)`` for each contiguous validation run (see the module
     docstring: continuous simulation, offset estimated on the warm-up before each run)."""
     runs = validation_runs(events, validation)
     if not runs:
         return []
-    sim = continuous_simulation(model, record, events, max(b for _, b, _ in runs))
+    sim = continuous_simulation(model, record, events, max(b for _, b, _ in runs), balance)
     out = []
     for a, b, first in runs:
         w = warmup(events, first)
@@ -110,10 +145,11 @@ def validation_simulation(model: ProcessModel, record: Record, events: list[Even
 
 
 def heldout_residuals(model: ProcessModel, record: Record, events: list[Event],
-                      heldout: list[int]) -> tuple[np.ndarray, np.ndarray]:
+                      heldout: list[int], balance: float | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """``(sample indices, measured - simulated)`` over the held-out events, simulated as
     validation (:func:`validation_simulation`)."""
-    sims = validation_simulation(model, record, events, heldout)
+    sims = validation_simulation(model, record, events, heldout, balance)
     if not sims:
         return np.empty(0, int), np.empty(0)
     idx = np.concatenate([np.arange(s.start, s.stop) for s, _ in sims])
@@ -121,8 +157,9 @@ def heldout_residuals(model: ProcessModel, record: Record, events: list[Event],
 
 
 def score(model: ProcessModel, record: Record, events: list[Event], ident: Event,
-          validation: list[int]) -> dict[str, float]:
-    """The metrics of one model (see the module docstring); NaN where there is no data."""
+          validation: list[int], balance: float | None = None) -> dict[str, float]:
+    """The metrics of one model (see the module docstring; ``balance``: an integrating
+    refinement's balance point, :func:`balance_point`); NaN where there is no data."""
     sl = slice(ident.i_start, ident.i_end)
     y_id = record.y[sl]
     sim_id = event_simulation(model, record, ident)
@@ -132,7 +169,7 @@ def score(model: ProcessModel, record: Record, events: list[Event], ident: Event
         "mse_validation": float("nan"),
         "fit_percent": float("nan"),
     }
-    idx, e = heldout_residuals(model, record, events, validation)
+    idx, e = heldout_residuals(model, record, events, validation, balance)
     if idx.size:
         metrics["mse_validation"] = mse(e, np.zeros_like(e))
         metrics["fit_percent"] = fit_percent(record.y[idx], record.y[idx] - e)

@@ -101,7 +101,7 @@ def test_integrator_methods_are_not_applicable_to_lags():
 
 def _self_regulating(event_kind: str, kind: str | None = "graphical") -> list[str]:
     """Methods whose models are self-regulating (graphical ones by default)."""
-    return [m.id for m in REGISTRY.values() if m.event == event_kind
+    return [m.id for m in REGISTRY.values() if m.accepts(event_kind)
             and (kind is None or m.kind == kind)
             and not any(STRUCTURES[s].integrating for s in m.structures)]
 

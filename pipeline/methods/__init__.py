@@ -25,7 +25,7 @@ for _mid in sorted(REGISTRY, key=lambda m: _order.get(m, len(_order))):
 
 def method_ids(event: str | None = None) -> list[str]:
     """Registered ids in catalogue order, optionally only those for one event kind."""
-    return [m.id for m in REGISTRY.values() if event is None or m.event == event]
+    return [m.id for m in REGISTRY.values() if event is None or m.accepts(event)]
 
 
 def select_methods(requested: list[str] | str | None, event_kind: str) -> list[str]:

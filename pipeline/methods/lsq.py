@@ -1,20 +1,20 @@
 """The least-squares refinements as methods: one ``lsq_<structure>`` per entry of the
 structure table (:data:`pipeline.models.STRUCTURES`), generated here, so a new structure
 gets its refinement with no further edit. Each runs :func:`pipeline.refine_record.
-refine_event`, started from the graphical methods' readings of the same event.
+refine_event`, started from the graphical methods' readings of the same event. They take
+steps and pulses alike (the measured input drives the model, whatever its shape).
 """
 
 from __future__ import annotations
 
-import math
 import weakref
 from collections.abc import Callable
 
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import STRUCTURES, ProcessModel
-from ..refine_record import refine_event, result_parts
-from .registry import REGISTRY, MethodResult, identify, register
+from ..refine_record import mismatch, refine_event, result_parts, unchanged
+from .registry import ANY_EVENT, REGISTRY, MethodResult, identify, register
 
 #: The last event the graphical starts were computed for: ``identify(ev, "lsq_...")`` for
 #: each structure on the same event object reuses them (an event is immutable).
@@ -44,12 +44,9 @@ def refinement_id(structure: str) -> str:
 def _refinement(structure: str) -> Callable[..., MethodResult]:
     def method(ev: EventData, **context) -> MethodResult:
         """``context``: ``models`` (starts), ``state``, ``options`` (see refine_event)."""
-        if ev.response == "ramp" and not STRUCTURES[structure].integrating:
-            raise NotApplicable("the output ramps without settling (an integrating process): "
-                                "a self-regulating model has no gain for it")
-        if ev.dy == 0 or not math.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
-            raise NotApplicable("the output did not change measurably (|y_ss - y0| <= 3 "
-                                "sigma)")
+        reason = mismatch(structure, ev) or unchanged(ev)
+        if reason:
+            raise NotApplicable(reason)
         if context.get("models") is None:
             context = {**context, "models": graphical_models(ev)}
         model, diagnostics, ci95 = result_parts(refine_event(ev, structure, **context))
@@ -66,7 +63,7 @@ def register_refinements() -> None:
     for name in STRUCTURES:
         if refinement_id(name) in REGISTRY:
             continue
-        register(id=refinement_id(name), event="step", structures=(name,),
+        register(id=refinement_id(name), event=ANY_EVENT, structures=(name,),
                  references=("ljung1999", "golub1973"), kind="refinement",
                  source="output-error least squares (pipeline.refine)",
                  title=f"least squares: {name.replace('_', ' ')}")(_refinement(name))
