@@ -242,6 +242,8 @@ def _baseline(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     change (a refined fit that carried or estimated the initial state is exempt)."""
     if is_refined(fit.method) and fit.diagnostics.get("initial_state", "rest") != "rest":
         return None
+    if fit.model.spec.integrating:  # read against the baseline's drift line, not a level
+        return None
     t, y = rec.t[ev.i_base:ev.i_start], rec.y[ev.i_base:ev.i_start]
     dy = ev.y_ss - ev.y0
     if t.size < 10 or dy == 0:

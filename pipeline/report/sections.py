@@ -17,7 +17,7 @@ from ..consistency import static_map_note
 from ..record import in_time_unit
 from ..results import RecordResult
 from ..schema import fit_label
-from ..validate import event_simulation, validation_simulation
+from ..validate import balance_point, event_simulation, validation_simulation
 from . import plots
 from .consistency_plots import consistency_figure, static_map_figure
 from .tables import (
@@ -167,7 +167,8 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
     curves = []
     for f in fits:
         y = np.full(hi - lo, np.nan)
-        for sl, sim in validation_simulation(f.model, rec, res.events, validation):
+        for sl, sim in validation_simulation(f.model, rec, res.events, validation,
+                                             balance_point(f)):
             y[sl.start - lo : sl.stop - lo] = sim
         curves.append((f"{_label(f)} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y))
     return plots.overlay(rec, slice(lo, hi), curves,
