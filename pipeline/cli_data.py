@@ -58,6 +58,8 @@ DATA_OPTIONS: tuple[tuple[str, object, typer.models.OptionInfo], ...] = (
                                       "keep_longest")),
     ("trailing_lines", str | None, _option("--trailing-lines", "lines after the data that "
                                            "are not data: error (default) or skip")),
+    ("unwrap", float | None, _option("--unwrap", "period of an output that wraps (a counter, "
+                                     "an angle: 360), unwrapped")),
     ("initial_input", float | None, _option("--initial-input", "input level before the "
                                             "first row")),
     ("units", str | None, _option("--units", "units of the signals, e.g. input=V,output=degC "

@@ -60,8 +60,10 @@ POOR_FIT_PERCENT = 50.0
 #: A refined model that has reached less than this share of its final value by the end of
 #: its window extrapolates its gain (the 95 % settling of a step response).
 SETTLED_SHARE = 0.95
-#: A misfit this many noise sigmas is not a model of the data at all (unreliable).
-UNRELIABLE_MISFIT = 10.0
+#: A model that explains less than this share (NRMSE fit, percent) of its own event's
+#: variation is not a model of the data (unreliable); a misfit beyond the noise alone is a
+#: warning (a quantised or very smooth signal has a tiny noise and a large ratio).
+UNRELIABLE_FIT_PERCENT = 50.0
 #: A model whose RMS misfit is this many noise sigmas off explains the data structurally
 #: wrong (with the right structure the misfit is the noise: ratio ~1).
 MISFIT_RATIO = 3.0
@@ -311,8 +313,8 @@ def _fit_quality(fit: Fit, ev: Event, rec: Record) -> Flag | None:
 def _misfit(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     """The error on the model's own event against the noise (a refinement's own fit error,
     at its fitted operating point; a reading's simulated from the event's). Beyond
-    :data:`MISFIT_RATIO` sigmas a warning, beyond :data:`UNRELIABLE_MISFIT` or worse than
-    the window's mean (a negative NRMSE fit) unreliable."""
+    :data:`MISFIT_RATIO` sigmas a warning; unreliable when the model explains less than
+    :data:`UNRELIABLE_FIT_PERCENT` of the window's variation (NRMSE fit)."""
     mse = fit.diagnostics.get("mse_fit") if is_refined(fit.method) else None
     mse = float(mse) if isinstance(mse, int | float) else fit.metrics.get(
         "mse_identification", math.nan)
@@ -323,7 +325,7 @@ def _misfit(fit: Fit, ev: Event, rec: Record) -> Flag | None:
         return None
     spread = float(np.std(rec.y[ev.i_start:ev.i_end]))
     fit_pct = 100.0 * (1.0 - math.sqrt(mse) / spread) if spread > 0 else math.nan
-    bad = ratio > UNRELIABLE_MISFIT or fit_pct < 0
+    bad = not fit_pct >= UNRELIABLE_FIT_PERCENT
     return Flag("residuals_not_white", f"On its own event the model misses the data by "
                 f"{ratio:.1f} times the noise level (RMS {math.sqrt(mse):.3g}"
                 f"{_unit_of_output(rec)}, fit {fit_pct:.0f} %): the residuals are structure, "

@@ -43,7 +43,7 @@ VALUES = {"time": "time", "sample_time": 0.5, "columns": ["time", "u", "y"],
           "stamp": "header.stamp", "max_gap": 5.0, "time_unit": "ms", "time_zone": "UTC",
           "time_format": "%Y-%m-%d %H:%M:%S", "delimiter": "comma", "decimal": ".",
           "header": True, "sheet": "log", "duplicates": "mean", "fill_gaps": 2,
-          "long_gaps": "keep_longest", "trailing_lines": "skip"}
+          "long_gaps": "keep_longest", "trailing_lines": "skip", "unwrap": 360.0}
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,9 @@
   an error. A longer run is an error, or with ``long_gaps: keep_longest`` only the longest
   stretch between such runs is kept. Empty cells at the very start or end have no
   neighbours to fill from and are dropped with the run.
+- ``unwrap: P``: an output that wraps with period P (a position counter, an angle in
+  degrees with P = 360) is unwrapped: a jump by more than P/2 between samples is taken as
+  a wrap (numpy.unwrap).
 """
 
 from __future__ import annotations
@@ -28,6 +31,18 @@ class QuirkOptions(Strict):
     duplicates: Literal["error", "mean", "first"] = "error"
     fill_gaps: int = Field(0, ge=0)
     long_gaps: Literal["error", "keep_longest"] = "error"
+    unwrap: float | None = Field(None, gt=0)
+
+
+def unwrap_output(rows: Rows, options: QuirkOptions, name: str) -> tuple[Rows, list[str]]:
+    """The output unwrapped with ``options.unwrap``'s period, and its note."""
+    if options.unwrap is None:
+        return rows, []
+    y = np.unwrap(rows.y, period=options.unwrap)
+    wraps = int(np.count_nonzero(np.abs(np.diff(y - rows.y)) > 0))
+    note = (f"unwrap: output {name!r} unwrapped with period {options.unwrap:g} "
+            f"({wraps} wrap(s) taken out)")
+    return Rows(rows.t, rows.u, y, rows.index), [note]
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from pydantic import Field
 from ..errors import UserError
 from ..record import Record, make_record
 from .base import DataSection, Places, Strict
-from .quirks import QuirkOptions, Rows, check_order, fill_gaps, merge_duplicates
+from .quirks import QuirkOptions, Rows, check_order, fill_gaps, merge_duplicates, unwrap_output
 from .timebase import TimeOptions, display_unit, time_base
 
 _UNIT = re.compile(r"(.*?)\s*(?:\(([^()]*)\)|\[([^\[\]]*)\])")
@@ -166,8 +166,9 @@ def table_to_record(table: Table, data: DataSection, options: TableOptions,
     check_order(rows, options, table.places, hint)
     rows, merged = merge_duplicates(rows, options, table.places)
     rows, filled = fill_gaps(rows, options, (u_name, y_name), table.places)
+    rows, unwrapped = unwrap_output(rows, options, y_name)
     units, from_header = _units(given, unit, unit_from, {"input": u_unit, "output": y_unit})
-    notes = [*table.notes, *base.notes, *merged, *filled, *from_header]
+    notes = [*table.notes, *base.notes, *merged, *filled, *unwrapped, *from_header]
     return make_record(rows.t, rows.u, rows.y, name=name, source=where, units=units,
                        initial_input=data.initial_input, input_name=u_name,
                        output_name=y_name, notes=tuple(notes), start=base.start)
