@@ -55,9 +55,8 @@ def markdown(n: int, workers: int, times: dict[str, float], n_failed: int, n_fit
         f"`python benchmarks/batch_scaling.py --n {n} --workers {workers}` on "
         f"{platform.python_implementation()} {platform.python_version()}, "
         f"{os.cpu_count()} CPU(s); 1-minute load average {load[0]:.1f} before and "
-        f"{load[1]:.1f} after the runs; OPENBLAS_NUM_THREADS "
-        f"{os.environ.get('OPENBLAS_NUM_THREADS', 'unset')} in the in-process run (pool "
-        "workers always get 1, see `pipeline.batch.single_threaded_workers`).",
+        f"{load[1]:.1f} after the runs; native BLAS/OpenMP pools limited to one thread in "
+        "the in-process loop and in every pool worker (`pipeline.batch.limit_native_threads`).",
         "",
         "| workers | wall time (s) | records/s | speed-up |",
         "|---:|---:|---:|---:|",
