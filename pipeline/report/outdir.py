@@ -37,7 +37,9 @@ _PLOT = re.compile(r"plots/[^/\\]+\.png")
 _STALE = re.compile(re.escape(STAGING) + r"(?P<host>.+)-(?P<pid>\d+)-[a-z0-9_]+")
 
 
-def _host() -> str:
+def host_tag() -> str:
+    """This host in staging names: its name with anything but letters, digits and dots
+    as ``_``."""
     return re.sub(r"[^A-Za-z0-9.]+", "_", socket.gethostname()) or "host"
 
 
@@ -57,7 +59,7 @@ def remove_stale(out_dir: Path) -> list[Path]:
     """Remove the staging folders in ``out_dir`` that runs on this host left behind when
     they were killed (their process is gone); returns what was removed."""
     removed = []
-    host = _host()
+    host = host_tag()
     for entry in out_dir.iterdir():
         m = _STALE.fullmatch(entry.name)
         if (m and m["host"] == host and not _alive(int(m["pid"])) and entry.is_dir()
@@ -85,7 +87,7 @@ def publish(out_dir: Path, files: dict[str, bytes]) -> None:
     order = sorted(files, key=lambda n: (n in OWNED, OWNED.index(n) if n in OWNED else 0))
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale(out_dir)
-    stage = Path(tempfile.mkdtemp(prefix=f"{STAGING}{_host()}-{os.getpid()}-", dir=out_dir))
+    stage = Path(tempfile.mkdtemp(prefix=f"{STAGING}{host_tag()}-{os.getpid()}-", dir=out_dir))
     try:
         for name in order:
             (stage / name).parent.mkdir(exist_ok=True)
