@@ -63,7 +63,8 @@ def check_writable(path: str | os.PathLike, what: str, *, folder: bool = False) 
         if not nearest.is_dir():
             raise UserError(f"{p}: cannot write the {what} ({nearest} is a file, not a "
                             f"folder)")
-    if not os.access(nearest, os.W_OK | os.X_OK):
+    if not os.access(nearest, os.W_OK | os.X_OK,
+                     effective_ids=os.access in os.supports_effective_ids):
         raise UserError(f"{p}: cannot write the {what} ({nearest} is not writable)")
 
 

@@ -186,7 +186,7 @@ def test_name_never_writes_outside_reports(tmp_path, monkeypatch, name, folder):
     work.mkdir(parents=True)
     (work / "log.csv").write_text(step_csv())
     (work / "c.yaml").write_text(config("path: log.csv\ninput: u\noutput: y\ntime: time",
-                                        name=json.dumps(name)))
+                                        name=json.dumps(name), extra="report: {plots: none}"))
     monkeypatch.chdir(work)
     r = runner.invoke(app, ["run", "c.yaml", "--workers", "1"])
     assert r.exit_code == 0, r.output

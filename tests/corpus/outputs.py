@@ -12,7 +12,10 @@ from pipeline.report.outdir import STAGING, host_tag
 from tests.corpus import Hostile, config, step_csv
 
 LOG = step_csv()
-GOOD = config("path: log.csv\ninput: u\noutput: y\ntime: time")
+# one overview plot a record (rendering plots is most of a row's time)
+GOOD = config("path: log.csv\ninput: u\noutput: y\ntime: time",
+              extra="report: {plots: summary}\n")
+NOPLOTS = GOOD.replace("plots: summary", "plots: none")
 BAD = config("path: bad.csv\ninput: u\noutput: y\ntime: time")
 SHORT = "time,u,y\n0,0,0\n1,1,0\n"  # too short to analyse: the record fails
 USER = {"out/plots/mine.png": b"\x89PNG my own plot", "out/notes.txt": "my notes"}
@@ -67,33 +70,33 @@ CASES = [
             check=_reported("log")),
     Hostile("out_keeps_user_plot_without_plots",
             ("run", "c.yaml", "--out", "out", "--workers", "1"), 0,
-            files={"c.yaml": GOOD + "report: {plots: none}\n", "log.csv": LOG, **USER},
+            files={"c.yaml": NOPLOTS, "log.csv": LOG, **USER},
             keep=tuple(USER), check=_reported("log")),
     Hostile("identify_out_keeps_user_plot",
             ("identify", "log.csv", "--input", "u", "--output", "y", "--time", "time",
              "--method", "first_order", "--out", "out"), 0,
             files={"log.csv": LOG, **USER}, keep=tuple(USER), check=_reported("log")),
     Hostile("out_dot_keeps_the_folder", ("run", "c.yaml", "--out", ".", "--workers", "1"), 0,
-            files={"c.yaml": GOOD, "log.csv": LOG, "plots/mine.png": b"mine",
+            files={"c.yaml": NOPLOTS, "log.csv": LOG, "plots/mine.png": b"mine",
                    "notes.txt": "x"}, keep=("c.yaml", "log.csv", "plots/mine.png",
                                              "notes.txt")),
     # item 3: name is a label, never a path
     Hostile("name_dotdot_stays_in_reports", ("run", "c.yaml", "--workers", "1"), 0,
-            files={"c.yaml": GOOD.replace("name: hostile", "name: ../../escaped-by-name"),
+            files={"c.yaml": NOPLOTS.replace("name: hostile", "name: ../../escaped-by-name"),
                    "log.csv": LOG},
             check=_under_reports("escaped-by-name", "../../escaped-by-name")),
     Hostile("name_absolute_stays_in_reports", ("run", "c.yaml", "--workers", "1"), 0,
-            files={"c.yaml": GOOD.replace("name: hostile",
+            files={"c.yaml": NOPLOTS.replace("name: hostile",
                                           "name: /tmp/pipeline-corpus-absolute-name"),
                    "log.csv": LOG},
             check=_under_reports("tmp_pipeline-corpus-absolute-name",
                                  "/tmp/pipeline-corpus-absolute-name")),
     Hostile("name_with_slashes_and_spaces", ("run", "c.yaml", "--workers", "1"), 0,
-            files={"c.yaml": GOOD.replace("name: hostile", "name: 'Line 2 / oven'"),
+            files={"c.yaml": NOPLOTS.replace("name: hostile", "name: 'Line 2 / oven'"),
                    "log.csv": LOG}, check=_under_reports("Line_2_oven")),
     # item 9: a killed run's staging folder is removed by the next run
     Hostile("stale_staging_removed", ("run", "c.yaml", "--out", "out", "--workers", "1"), 0,
-            files={"c.yaml": GOOD, "log.csv": LOG, f"{STALE}/report.html": "<html>half",
+            files={"c.yaml": NOPLOTS, "log.csv": LOG, f"{STALE}/report.html": "<html>half",
                    "out/notes.txt": "mine"}, keep=("out/notes.txt",), check=_stale_gone),
     # item 11: a bad target is one line, before the batch
     Hostile("out_under_a_file", ("run", "c.yaml", "--out", "afile/sub"), 2,
