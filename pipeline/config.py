@@ -6,6 +6,7 @@ Every problem is one :class:`~pipeline.errors.UserError` line naming the file, t
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Literal
 
@@ -62,8 +63,22 @@ class ReportConfig(_Strict):
     plots: Literal["auto", "full", "summary", "none"] = "auto"
 
 
+def folder_name(label: str) -> str:
+    """The folder a run's ``name`` gives under ``reports/`` when no ``output:`` is set.
+
+    ``name`` is a label (the report title, the JUnit suite), never a path: every run of
+    characters other than letters, digits, ``-``, ``_`` and ``.`` becomes one ``_``,
+    leading dots and underscores are dropped (no ``..``, no hidden folder), it is cut to
+    100 characters, and ``run`` stands for a name with nothing left:
+    ``../../../x`` -> ``x``, ``/srv/x`` -> ``srv_x``, ``Line 2 / oven`` -> ``Line_2_oven``.
+    """
+    safe = re.sub(r"[^\w.-]+", "_", label, flags=re.UNICODE).lstrip("._")[:100]
+    return safe.rstrip("._") or "run"
+
+
 class RunConfig(_Strict):
-    name: str = "run"
+    name: str = Field("run", description="a label (report title); the default report "
+                      "folder is reports/ and this label made safe (folder_name)")
     data: DataConfig
     segmentation: SegmentationConfig = SegmentationConfig()
     identification: IdentificationConfig = IdentificationConfig()
@@ -92,6 +107,13 @@ class RunConfig(_Strict):
                 + ", ".join(REGISTRY)
             )
         return v
+
+    def report_folder(self) -> Path:
+        """Where the reports go without ``--out``: ``output:`` (relative to the config
+        file), else ``./reports/`` and :func:`folder_name` of ``name`` (never outside it)."""
+        if self.output:
+            return Path(self.base_dir) / self.output
+        return Path("reports") / folder_name(self.name)
 
     def method_ids(self) -> list[str] | str:
         """``"all"`` or the listed ids (:func:`pipeline.methods.select_methods` decides)."""

@@ -22,12 +22,50 @@ def read_text(path: str | os.PathLike, what: str) -> str:
         raise UserError(f"{p}: cannot read the {what} ({exc})") from None
 
 
+def _umask() -> int:
+    """The process's umask. Read from ``/proc`` where there is one: setting it to read it
+    back (the portable way) leaves it 0 for a moment, when another thread's new file
+    would be world-writable."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def default_mode(directory: bool = False) -> int:
     """The mode a new file (or folder) gets under the process's umask, as ``open`` and
-    ``mkdir`` would give it (``mkstemp``/``mkdtemp`` create them private)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return (0o777 if directory else 0o666) & ~mask
+    ``mkdir`` would give it (``mkstemp``/``mkdtemp`` create them private: 0600, 0700)."""
+    return (0o777 if directory else 0o666) & ~_umask()
+
+
+def check_writable(path: str | os.PathLike, what: str, *, folder: bool = False) -> None:
+    """Check, without creating anything, that ``path`` can be written as a file (or a
+    ``folder``): it is not the other kind, the nearest existing folder above it is a
+    folder and writable. A problem is one :class:`UserError` line naming ``path``,
+    ``what`` it is and why (run before a batch, so a bad target costs no run)."""
+    p = Path(path)
+    if p.is_dir() and not folder:
+        raise UserError(f"{p}: cannot write the {what} (is a folder); expected a file")
+    if p.exists() and folder and not p.is_dir():
+        raise UserError(f"{p}: cannot write the {what} (is a file); expected a folder")
+    if p.is_dir():
+        nearest = p
+    else:
+        nearest = p.parent
+        while not nearest.exists() and nearest != nearest.parent:
+            nearest = nearest.parent  # exists() is False below a file: find that file
+        if not nearest.is_dir():
+            raise UserError(f"{p}: cannot write the {what} ({nearest} is a file, not a "
+                            f"folder)")
+    if not os.access(nearest, os.W_OK | os.X_OK,
+                     effective_ids=os.access in os.supports_effective_ids):
+        raise UserError(f"{p}: cannot write the {what} ({nearest} is not writable)")
 
 
 def write_atomic(path: str | os.PathLike, data: bytes, what: str = "file") -> None:
@@ -36,9 +74,8 @@ def write_atomic(path: str | os.PathLike, data: bytes, what: str = "file") -> No
     failure is one :class:`UserError` line naming ``path`` and ``what`` it is."""
     path = Path(path)
     tmp = None
+    check_writable(path, what)
     try:
-        if path.is_dir():
-            raise IsADirectoryError(21, "is a folder")
         path.parent.mkdir(parents=True, exist_ok=True)
         mode = path.stat().st_mode & 0o777 if path.exists() else default_mode()
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")

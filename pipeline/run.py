@@ -23,6 +23,7 @@ from pathlib import Path
 from .analysis import AnalysisOptions, analyse
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
+from .files import check_writable
 from .io import SUFFIXES, load_record
 from .io.options import check_file
 from .results import RecordResult, RunResult
@@ -151,6 +152,8 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
     A record that cannot be analysed is a :class:`UserError` (a single file has nothing
     else to report).
     """
+    if out_dir is not None:
+        check_writable(out_dir, "report folder", folder=True)
     record = load_record(path, data)
     res = analyse(record, options)
     if res.error:
@@ -173,8 +176,10 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
                tolerances=None) -> Outcome:
     """Run a config end to end: every record, one report, the optional gate and history.
 
-    Exit codes: 0 done, 1 a regression against ``baseline``, 3 some records failed; all
-    records failing is 2 with no report. User errors raise :class:`UserError`.
+    Exit codes: 0 done, 1 a regression against ``baseline``, 3 some records failed, 2 all
+    records failed (the reports, JUnit file and history row are written all the same).
+    The report folder is ``out_dir``, else :meth:`RunConfig.report_folder`; it and the
+    JUnit and history files are checked before the batch. User errors raise :class:`UserError`.
     ``tolerances`` is a :class:`pipeline.baseline.Tolerances` (defaults when None).
     """
     from .batch import parallel_map, run_records
@@ -184,9 +189,11 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     specs = resolve_specs(cfg)
     # the baseline and the history are read, the output files checked, before the batch:
     # a bad one costs no run
+    target = out_dir or cfg.report_folder()  # name is a label: never a path
+    check_writable(target, "report folder", folder=True)
     for path, what in ((junit, "JUnit file"), (history, "history")):
-        if path is not None and Path(path).is_dir():
-            raise UserError(f"{path}: cannot write the {what} (is a folder); expected a file")
+        if path is not None:
+            check_writable(path, what)
     base_doc = past = None
     if baseline is not None:
         from .results import load_results
@@ -199,8 +206,8 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     records = run_records(specs, cfg, process_record, workers=workers, executor=executor,
                           scheduler=scheduler, progress=progress)
     run = RunResult(records, config=cfg.source, created=created)
-    if len(run.failures) == len(records):
-        return Outcome(ExitCode.USER_ERROR, None, run)
+    # every record failing still writes the reports, the JUnit file and the history (CI
+    # sees the failures), and exits 2
     doc = run.to_doc()
     from .report.build import Extras, write_run
 
@@ -224,9 +231,6 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
         rows = history_rows(doc, run_time)  # the file is appended after the report
         frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
         extras.history = history_figures(frame)
-    # the config's output: relative to the config file; the default under ./reports
-    target = out_dir or (Path(cfg.base_dir) / cfg.output if cfg.output
-                         else Path("reports") / cfg.name)
     with parallel_map(workers if executor == "local" else 1, len(records)) as mapper:
         write_run(target, run, doc, title=cfg.report.title or f"System identification: "
                   f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
@@ -246,6 +250,7 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     counts = ", ".join(f"{verdicts.count(v)} {v}" for v in ("ok", "warning", "unreliable"))
     messages.insert(0, f"{n_ok} of {len(records)} record(s) identified ({counts}); reports "
                        f"in {target}/")
-    code = (ExitCode.REGRESSION if comparison is not None and not comparison.ok
+    code = (ExitCode.USER_ERROR if len(run.failures) == len(records)
+            else ExitCode.REGRESSION if comparison is not None and not comparison.ok
             else ExitCode.SOME_FAILED if run.failures else ExitCode.OK)
     return Outcome(code, target, run, messages)

@@ -113,15 +113,18 @@ def test_run_config_typo_leaves_no_output(tmp_path):
     assert not out.exists()
 
 
-def test_run_missing_column_leaves_no_output(tmp_path):
+def test_run_missing_column_is_one_line_and_a_report(tmp_path):
     p = _csv(tmp_path)
     c = _config(tmp_path, f"name: t\ndata:\n  path: {p.name}\n  input: u\n  output: temp\n"
                 "  time: time\n")
     out = tmp_path / "out"
     _one_line_error(runner.invoke(app, ["run", str(c), "--out", str(out), "--workers", "1"]),
                     "no column 'temp'")
-    assert not out.exists()
-    assert not [f for f in tmp_path.iterdir() if f.name.startswith(".out")]
+    # the only record failed: exit 2, and the report says why (issue 13 item 12)
+    doc = json.loads((out / "results.json").read_text())
+    assert [r["status"] for r in doc["records"]] == ["failed"]
+    assert "no column" in (out / "report.html").read_text()
+    assert not [f for f in out.iterdir() if ".tmp-" in f.name]
 
 
 def test_run_missing_data_file_leaves_no_output(tmp_path):

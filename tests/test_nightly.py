@@ -45,13 +45,27 @@ def test_batch_with_corrupt_files_exit_3_and_complete_report(tmp_path):
     assert r2.exit_code == 0
 
 
-def test_every_record_failing_is_exit_2_without_report(tmp_path):
+def test_every_record_failing_is_exit_2_with_every_output(tmp_path):
+    """Issue 13 item 12: CI sees a batch in which every record failed: results.json, the
+    report listing each failure, the JUnit file and the history rows, and exit 2."""
     logs = tmp_path / "logs"
     write_synthetic_logs(logs, 3, corrupt=3)
-    out = tmp_path / "out"
+    out, junit, history = tmp_path / "out", tmp_path / "j.xml", tmp_path / "h.parquet"
     r = runner.invoke(app, ["run", str(_config(tmp_path, logs)), "--out", str(out),
-                            "--workers", "1"])
-    assert r.exit_code == 2 and not out.exists()
+                            "--workers", "1", "--junit", str(junit), "--history",
+                            str(history)])
+    assert r.exit_code == 2, r.output
+    assert len(r.stderr.strip().splitlines()) == 3  # one line per bad log
+    doc = json.loads((out / "results.json").read_text())
+    assert [rec["status"] for rec in doc["records"]] == ["failed"] * 3
+    html, md = (out / "report.html").read_text(), (out / "report.md").read_text()
+    for rec in doc["records"]:
+        assert rec["name"] in html and rec["name"] in md
+    assert html.count('class="failed"') >= 3
+    root = ET.parse(junit).getroot()
+    assert root.get("tests") == "3" and root.get("errors") == "3"
+    rows = pl.read_parquet(history)
+    assert rows.height == 3 and rows["status"].to_list() == ["failed"] * 3
 
 
 def test_regression_gate_drift_flagged_fresh_noise_not(tmp_path):

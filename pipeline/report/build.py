@@ -1,24 +1,22 @@
 """Report assembly: results -> a template context -> report.md (+ PNGs), report.html
-(one self-contained file, plots inline) and results.json, written atomically: everything
-goes to a temporary sibling folder that replaces the output folder in one rename, so a
-crash never leaves a half-written report.
+(one self-contained file, plots inline) and results.json, written into the output folder
+by :func:`pipeline.report.outdir.publish` (staged inside it, replaced file by file: a crash
+never leaves a half-written report, the user's files are kept).
 """
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, select_autoescape
 
 from ..errors import UserError
-from ..files import default_mode
+from ..files import check_writable
 from ..grade import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
+from .outdir import publish
 from .sections import collector, record_section, slug
 from .tables import record_verdict, summary_table
 
@@ -86,56 +84,28 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
     return md, html, files
 
 
-#: What a run writes into its output folder; nothing else there is touched.
-OUTPUTS = ("results.json", "report.md", "report.html", "plots")
-
-
 def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
               extras: Extras | None = None, markdown: bool = True, html: bool = True,
               plots_mode: str = "auto", mapper=map) -> Path:
     """Write results.json, report.md (+ plots/) and report.html into ``out_dir``.
 
-    Everything is rendered into a temporary sibling folder first; a new ``out_dir`` is
-    that folder renamed in one step. An existing ``out_dir`` keeps whatever else it holds
-    (a history file, the user's notes): only :data:`OUTPUTS` are replaced, each by a
-    rename, the report files last.
+    The folder is created if need be; in an existing one only the run's own outputs are
+    replaced (:mod:`pipeline.report.outdir`: staged inside the folder, then replaced file
+    by file, reports last), whatever else it holds (a history file, the user's notes and
+    plots) is kept. A failure is one :class:`UserError` line.
     """
     out_dir = Path(out_dir).resolve()
-    if out_dir.exists() and not out_dir.is_dir():
-        raise UserError(f"{out_dir}: exists and is not a folder; expected an output folder")
+    check_writable(out_dir, "report folder", folder=True)
     md, page, files = render(run, doc, title=title, extras=extras, plots_mode=plots_mode,
                              mapper=mapper)
-    tmp = None
+    outputs = {"results.json": results_json(doc).encode("utf-8")}
+    if markdown:
+        outputs.update(files)
+        outputs["report.md"] = md.encode("utf-8")
+    if html:
+        outputs["report.html"] = page.encode("utf-8")
     try:
-        out_dir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
-        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
-        (tmp / "results.json").write_text(results_json(doc), encoding="utf-8")
-        if markdown:
-            (tmp / "plots").mkdir()
-            for name, png in files.items():
-                (tmp / name).write_bytes(png)
-            (tmp / "report.md").write_text(md, encoding="utf-8")
-        if html:
-            (tmp / "report.html").write_text(page, encoding="utf-8")
-        if out_dir.exists():
-            _replace_outputs(tmp, out_dir)
-        else:
-            os.replace(tmp, out_dir)
+        publish(out_dir, outputs)
     except OSError as exc:
         raise UserError(f"{out_dir}: cannot write the report ({exc.strerror or exc})") from None
-    finally:
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
     return out_dir
-
-
-def _replace_outputs(tmp: Path, out_dir: Path) -> None:
-    """Move this run's outputs into an existing folder; stale ones of ours are removed."""
-    old = Path(tempfile.mkdtemp(prefix=".old-", dir=tmp))
-    for name in OUTPUTS:  # results.json first, the reports last
-        src, dst = tmp / name, out_dir / name
-        if dst.exists():
-            os.replace(dst, old / name)
-        if src.exists():
-            os.replace(src, dst)

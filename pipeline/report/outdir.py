@@ -1,0 +1,117 @@
+"""The output folder a run writes into: staged inside itself, then replaced file by file.
+
+* Everything a run writes is first written to a staging folder *inside* the output folder
+  (``OUT/.pipeline.tmp-HOST-PID-XXXXXXXX``), so every later move is a rename on one
+  filesystem: an output folder that is a mount point (a Docker volume, a CI artifacts
+  mount) works, where a staging folder beside it fails with "Invalid cross-device link".
+* Only then are the run's own files moved into place, one ``os.replace`` each, the plots
+  first and the reports last: a run that dies before the swap leaves the previous report
+  intact. A replaced file keeps its mode; a new one gets the umask's.
+* The run's own files are :data:`OWNED` and the plots it writes. The plots an earlier run
+  wrote are listed in :data:`MANIFEST`; those this run does not write again are removed,
+  nothing else: the user's own files (in ``plots/`` too) are kept.
+* A staging folder left by a killed run names its host and process id; the next run on
+  that host removes those whose process is gone.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import socket
+import tempfile
+from pathlib import Path
+
+from ..files import default_mode
+
+#: The fixed names a run writes; one the run does not write this time (report.md with
+#: ``markdown: false``) is removed, so the folder never mixes two runs.
+OWNED = ("results.json", "report.md", "report.html")
+#: The plots the last run wrote (a JSON list of ``plots/NAME.png``).
+MANIFEST = ".pipeline-outputs.json"
+STAGING = ".pipeline.tmp-"
+_PLOT = re.compile(r"plots/[^/\\]+\.png")
+# mkdtemp's random part is [a-z0-9_]{8}: no dash, so the pid is the last dashed number
+_STALE = re.compile(re.escape(STAGING) + r"(?P<host>.+)-(?P<pid>\d+)-[a-z0-9_]+")
+
+
+def host_tag() -> str:
+    """This host in staging names: its name with anything but letters, digits and dots
+    as ``_``."""
+    return re.sub(r"[^A-Za-z0-9.]+", "_", socket.gethostname()) or "host"
+
+
+def _alive(pid: int) -> bool:
+    if pid <= 0:
+        return True  # not a process id we wrote: leave it alone
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # PermissionError: someone else's live process
+        return True
+    return True
+
+
+def remove_stale(out_dir: Path) -> list[Path]:
+    """Remove the staging folders in ``out_dir`` that runs on this host left behind when
+    they were killed (their process is gone); returns what was removed."""
+    removed = []
+    host = host_tag()
+    for entry in out_dir.iterdir():
+        m = _STALE.fullmatch(entry.name)
+        if (m and m["host"] == host and not _alive(int(m["pid"])) and entry.is_dir()
+                and not entry.is_symlink()):
+            shutil.rmtree(entry, ignore_errors=True)
+            removed.append(entry)
+    return removed
+
+
+def _previous_plots(out_dir: Path) -> set[str]:
+    """The plots the last run listed in its manifest (only names of the plot form)."""
+    try:
+        names = json.loads((out_dir / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    if not isinstance(names, list):
+        return set()
+    return {n for n in names if isinstance(n, str) and _PLOT.fullmatch(n)}
+
+
+def publish(out_dir: Path, files: dict[str, bytes]) -> None:
+    """Write ``files`` (relative name -> bytes; names are :data:`OWNED` or
+    ``plots/NAME.png``) into ``out_dir``: staged inside it, then replaced one by one, plots
+    first and ``report.html`` last. Raises ``OSError``; the staging folder never stays."""
+    order = sorted(files, key=lambda n: (n in OWNED, OWNED.index(n) if n in OWNED else 0))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    remove_stale(out_dir)
+    stage = Path(tempfile.mkdtemp(prefix=f"{STAGING}{host_tag()}-{os.getpid()}-", dir=out_dir))
+    try:
+        for name in order:
+            (stage / name).parent.mkdir(exist_ok=True)
+            (stage / name).write_bytes(files[name])
+        plots = sorted(n for n in files if n not in OWNED)
+        (stage / MANIFEST).write_text(json.dumps(plots), encoding="utf-8")
+        gone = (_previous_plots(out_dir) | set(OWNED)) - set(files)
+        for name in order:
+            _move(stage / name, out_dir / name)
+        for name in sorted(gone):  # an earlier run's outputs this run does not write
+            old = out_dir / name
+            if old.is_file() or old.is_symlink():
+                old.unlink()
+        _move(stage / MANIFEST, out_dir / MANIFEST)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _move(src: Path, dst: Path) -> None:
+    """``os.replace`` keeping the replaced file's mode (a new file: the umask's)."""
+    dst.parent.mkdir(exist_ok=True)  # plots/ the first time, with the umask's mode
+    try:
+        mode = dst.stat().st_mode & 0o777 if dst.is_file() else default_mode()
+    except OSError:
+        mode = default_mode()
+    os.chmod(src, mode)
+    os.replace(src, dst)

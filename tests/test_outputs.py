@@ -1,0 +1,300 @@
+"""The output folder (issue 13 items 2, 3, 9, 10, 11, 13): only the run's own files are
+replaced, the staging folder lives inside the target (mount points), stale staging of a
+killed run is removed, a bad target is one line before the batch, and modes follow the
+umask or the replaced file."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from pipeline.analysis import AnalysisOptions, analyse
+from pipeline.cli import app
+from pipeline.config import folder_name
+from pipeline.errors import UserError
+from pipeline.files import check_writable, default_mode, write_atomic
+from pipeline.models import ProcessModel
+from pipeline.report import outdir
+from pipeline.report.build import write_run
+from pipeline.results import RunResult
+from pipeline.synth import step_record
+from tests.corpus import config, step_csv
+
+runner = CliRunner()
+PLANT = ProcessModel("first_order", {"K": 2.0, "T": 5.0, "delay": 0.0})
+
+
+@pytest.fixture(scope="module")
+def run() -> RunResult:
+    rec = step_record(PLANT, u0=0.0, changes=[(20.0, 1.0)], t_end=100.0, dt=0.5, y0=0.0,
+                      noise=0.01, seed=1, name="plant")
+    return RunResult([analyse(rec, AnalysisOptions(methods=("first_order",)))], config="t")
+
+
+def _write(out: Path, run: RunResult, **kw) -> Path:
+    return write_run(out, run, run.to_doc(), title="t", **kw)
+
+
+@pytest.fixture
+def umask022():
+    old = os.umask(0o022)
+    yield
+    os.umask(old)
+
+
+# -- item 2: only the run's own outputs ---------------------------------------------------
+
+@pytest.mark.parametrize("plots", ["summary", "none"])
+def test_user_files_in_the_folder_and_in_plots_are_kept(tmp_path, run, plots):
+    out = tmp_path / "out"
+    (out / "plots").mkdir(parents=True)
+    (out / "plots" / "mine.png").write_bytes(b"my own plot")
+    (out / "notes.txt").write_text("mine")
+    _write(out, run, plots_mode=plots)
+    _write(out, run, plots_mode=plots)  # and again, over its own outputs
+    assert (out / "plots" / "mine.png").read_bytes() == b"my own plot"
+    assert (out / "notes.txt").read_text() == "mine"
+    assert json.loads((out / "results.json").read_text())["records"][0]["name"] == "plant"
+    ours = sorted(p.name for p in (out / "plots").iterdir() if p.name != "mine.png")
+    assert (ours == ["plant_overview.png"]) == (plots == "summary") and (ours == []) == (
+        plots == "none")
+
+
+def test_an_earlier_runs_plots_go_with_it_the_users_stay(tmp_path, run):
+    out = tmp_path / "out"
+    _write(out, run, plots_mode="full")
+    full = {p.name for p in (out / "plots").iterdir()}
+    assert "plant_overview.png" in full and len(full) >= 3
+    (out / "plots" / "mine.png").write_bytes(b"x")
+    _write(out, run, plots_mode="summary")
+    assert {p.name for p in (out / "plots").iterdir()} == {"plant_overview.png", "mine.png"}
+    _write(out, run, markdown=False)  # no report.md, no plots: the old ones are not left
+    assert not (out / "report.md").exists() and (out / "report.html").is_file()
+    assert {p.name for p in (out / "plots").iterdir()} == {"mine.png"}
+
+
+def test_a_planted_manifest_removes_nothing_outside_plots(tmp_path, run):
+    out = tmp_path / "out"
+    out.mkdir()
+    (tmp_path / "victim.txt").write_text("keep")
+    (out / "notes.txt").write_text("keep")
+    (out / outdir.MANIFEST).write_text(json.dumps(["../victim.txt", "notes.txt",
+                                                   "plots/../notes.txt"]))
+    _write(out, run, plots_mode="none")
+    assert (tmp_path / "victim.txt").read_text() == "keep"
+    assert (out / "notes.txt").read_text() == "keep"
+
+
+# -- item 10: the staging folder lives inside the target -----------------------------------
+
+def test_a_mount_point_works(tmp_path, run, monkeypatch):
+    """A rename that leaves the output folder fails as across filesystems (EXDEV), as on a
+    Docker volume; the old code staged beside it and failed every time."""
+    out = (tmp_path / "mnt").resolve()
+    out.mkdir()
+    (out / "report.html").write_text("old")
+    real_replace, real_rename = os.replace, os.rename
+
+    def inside(p) -> bool:
+        return Path(os.path.abspath(p)).is_relative_to(out)
+
+    def guard(real):
+        def move(src, dst, *a, **kw):
+            if inside(src) != inside(dst):
+                raise OSError(errno.EXDEV, "Invalid cross-device link")
+            return real(src, dst, *a, **kw)
+        return move
+
+    monkeypatch.setattr(os, "replace", guard(real_replace))
+    monkeypatch.setattr(os, "rename", guard(real_rename))
+    _write(out, run, plots_mode="summary")
+    assert (out / "report.html").read_text() != "old"
+    assert (out / "plots" / "plant_overview.png").is_file()
+    assert not [p for p in out.iterdir() if ".tmp-" in p.name]
+    assert [p.name for p in tmp_path.iterdir()] == ["mnt"]  # nothing staged beside it
+
+
+def test_a_run_that_dies_before_the_swap_leaves_the_old_report(tmp_path, run, monkeypatch):
+    out = tmp_path / "out"
+    _write(out, run, plots_mode="summary")
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    real = Path.write_bytes
+
+    def fail_on_html(self, data):
+        if self.name == "report.html":
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, data)
+
+    monkeypatch.setattr(Path, "write_bytes", fail_on_html)
+    with pytest.raises(UserError, match="No space left"):
+        write_run(out, run, run.to_doc(), title="changed", plots_mode="summary")
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+
+
+# -- item 9: stale staging of a killed run ------------------------------------------------
+
+def test_stale_staging_of_a_dead_run_is_removed(tmp_path, run):
+    out = tmp_path / "out"
+    host = outdir.host_tag()
+    dead = out / f"{outdir.STAGING}{host}-99999999-abcd_123"  # beyond any pid_max
+    live = out / f"{outdir.STAGING}{host}-1-abcd_123"  # init: alive
+    other = out / f"{outdir.STAGING}otherhost-99999999-abcd_123"  # not ours to judge
+    for d in (dead, live, other):
+        (d / "plots").mkdir(parents=True)
+        (d / "report.html").write_text("<html>half")
+    _write(out, run, plots_mode="none")
+    assert not dead.exists() and live.is_dir() and other.is_dir()
+
+
+def test_staging_names_its_host_and_pid(tmp_path, run, monkeypatch):
+    seen = []
+    real = outdir.tempfile.mkdtemp
+
+    def spy(*a, **kw):
+        seen.append(Path(real(*a, **kw)))
+        return str(seen[-1])
+
+    monkeypatch.setattr(outdir.tempfile, "mkdtemp", spy)
+    _write(tmp_path / "out", run, plots_mode="none")
+    m = outdir._STALE.fullmatch(seen[0].name)
+    assert seen[0].parent == (tmp_path / "out").resolve()
+    assert m and int(m["pid"]) == os.getpid() and m["host"] == outdir.host_tag()
+    assert not seen[0].exists()
+
+
+# -- item 3: name is a label --------------------------------------------------------------
+
+@pytest.mark.parametrize("name,folder", [
+    ("../../../x", "x"), ("/srv/x", "srv_x"), ("..", "run"), ("", "run"),
+    ("Line 2 / oven", "Line_2_oven"), (".hidden", "hidden"), ("thermal", "thermal"),
+    ("a\nb\x1b[31m", "a_b_31m"), ("Kühlung", "Kühlung"), ("x" * 300, "x" * 100),
+])
+def test_folder_name(name, folder):
+    assert folder_name(name) == folder
+
+
+@pytest.mark.parametrize("name,folder", [("../../../esc", "esc"), ("/tmp/h13-abs-name",
+                                                                     "tmp_h13-abs-name")])
+def test_name_never_writes_outside_reports(tmp_path, monkeypatch, name, folder):
+    work = tmp_path / "a" / "b" / "c"
+    work.mkdir(parents=True)
+    (work / "log.csv").write_text(step_csv())
+    (work / "c.yaml").write_text(config("path: log.csv\ninput: u\noutput: y\ntime: time",
+                                        name=json.dumps(name), extra="report: {plots: none}"))
+    monkeypatch.chdir(work)
+    r = runner.invoke(app, ["run", "c.yaml", "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    assert (work / "reports" / folder / "report.html").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a"]
+    assert not Path(name).exists() or Path(name).resolve().is_relative_to(work)
+    html = (work / "reports" / folder / "report.html").read_text()
+    assert f"System identification: {name}" in html.replace("&#34;", '"')
+
+
+# -- item 11: a bad target is one line, before the batch ----------------------------------
+
+def _cfg(d: Path) -> Path:
+    (d / "log.csv").write_text(step_csv())
+    (d / "c.yaml").write_text(config("path: log.csv\ninput: u\noutput: y\ntime: time"))
+    return d / "c.yaml"
+
+
+@pytest.mark.parametrize("extra,needle", [
+    (["--out", "{d}/afile/sub"], "afile is a file, not a folder"),
+    (["--out", "{d}/afile"], "is a file); expected a folder"),
+    (["--out", "{d}/o", "--junit", "{d}/jdir"], "JUnit file (is a folder)"),
+    (["--out", "{d}/o", "--junit", "{d}/afile/j.xml"], "afile is a file, not a folder"),
+    (["--out", "{d}/o", "--history", "{d}/jdir"], "history (is a folder)"),
+])
+def test_bad_targets_are_one_line_before_the_batch(tmp_path, extra, needle, monkeypatch):
+    c = _cfg(tmp_path)
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "jdir").mkdir()
+    import pipeline.batch
+
+    def no_batch(*a, **kw):
+        raise AssertionError("the batch ran")
+
+    monkeypatch.setattr(pipeline.batch, "run_records", no_batch)
+    r = runner.invoke(app, ["run", str(c), *[a.replace("{d}", str(tmp_path)) for a in extra]])
+    assert r.exit_code == 2, r.output
+    assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr
+    assert not (tmp_path / "o").exists()
+    assert (tmp_path / "afile").read_text() == "x"
+
+
+def test_identify_out_under_a_file_is_one_line(tmp_path):
+    (tmp_path / "log.csv").write_text(step_csv())
+    (tmp_path / "afile").write_text("x")
+    r = runner.invoke(app, ["identify", str(tmp_path / "log.csv"), "--input", "u", "--output",
+                            "y", "--time", "time", "--method", "first_order", "--out",
+                            str(tmp_path / "afile" / "sub")])
+    assert r.exit_code == 2 and "afile is a file, not a folder" in r.stderr, r.output
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into a read-only folder")
+def test_unwritable_parent_is_one_line(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        with pytest.raises(UserError, match="is not writable"):
+            check_writable(ro / "out", "report folder", folder=True)
+    finally:
+        ro.chmod(0o755)
+
+
+def test_a_parent_that_cannot_hold_folders_is_one_line(tmp_path, run):
+    """/proc refuses new folders even to root: the OSError is one line, not a traceback."""
+    with pytest.raises(UserError, match="/proc/pipeline-x: cannot write the report"):
+        _write(Path("/proc/pipeline-x"), run, plots_mode="none")
+
+
+# -- item 13: modes -----------------------------------------------------------------------
+
+def _mode(p: Path) -> int:
+    return p.stat().st_mode & 0o777
+
+
+@pytest.mark.parametrize("mask,file_mode,dir_mode", [(0o022, 0o644, 0o755),
+                                                     (0o027, 0o640, 0o750)])
+def test_new_outputs_get_the_umasks_mode(tmp_path, run, mask, file_mode, dir_mode):
+    old = os.umask(mask)
+    try:
+        assert default_mode() == file_mode and default_mode(directory=True) == dir_mode
+        out = tmp_path / "new" / "out"
+        _write(out, run, plots_mode="summary")
+        write_atomic(tmp_path / "junit.xml", b"<x/>", "JUnit file")
+    finally:
+        os.umask(old)
+    assert _mode(out) == dir_mode and _mode(out.parent) == dir_mode
+    assert _mode(out / "plots") == dir_mode
+    for p in [*out.glob("*.*"), *out.glob("plots/*")]:
+        assert _mode(p) == file_mode, p
+    assert _mode(tmp_path / "junit.xml") == file_mode
+
+
+def test_a_replaced_file_keeps_its_mode(tmp_path, run, umask022):
+    out = tmp_path / "out"
+    _write(out, run, plots_mode="summary")
+    (out / "report.html").chmod(0o600)
+    (out / "results.json").chmod(0o664)
+    (out / "plots" / "plant_overview.png").chmod(0o640)
+    (out / "plots").chmod(0o750)
+    out.chmod(0o775)
+    _write(out, run, plots_mode="summary")
+    assert _mode(out / "report.html") == 0o600 and _mode(out / "results.json") == 0o664
+    assert _mode(out / "plots" / "plant_overview.png") == 0o640
+    assert _mode(out / "plots") == 0o750 and _mode(out) == 0o775
+    assert _mode(out / "report.md") == 0o644
+    j = tmp_path / "j.xml"
+    j.write_text("old")
+    j.chmod(0o660)
+    write_atomic(j, b"<x/>", "JUnit file")
+    assert _mode(j) == 0o660 and j.read_bytes() == b"<x/>"
