@@ -24,6 +24,7 @@ from pathlib import Path
 import yaml
 
 from .errors import UserError
+from .files import default_mode
 
 MIRROR_ENV = "PIPELINE_DATASETS_MIRROR"
 REGISTRY_ENV = "PIPELINE_DATASETS_REGISTRY"
@@ -143,6 +144,7 @@ def _install(src: Path, target: Path, ds: Dataset) -> Path:
     fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".part-")
     os.close(fd)
     shutil.copyfile(src, tmp)
+    os.chmod(tmp, default_mode())  # mkstemp makes it 0600: the cache is shared like any file
     os.replace(tmp, target)
     return target
 
@@ -158,6 +160,7 @@ def _download(ds: Dataset, target: Path) -> Path:
         digest = sha256_of(Path(tmp))
         if digest != ds.sha256:
             raise ValueError(f"sha256 mismatch: got {digest}, expected {ds.sha256}")
+        os.chmod(tmp, default_mode())
         os.replace(tmp, target)
         return target
     finally:

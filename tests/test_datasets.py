@@ -52,3 +52,16 @@ def test_unavailable_dataset_says_how_to_get_it(tmp_path, monkeypatch):
 def test_unknown_dataset():
     with pytest.raises(UserError, match="unknown dataset 'nope'"):
         datasets.get("nope")
+
+
+def test_cached_copy_has_the_umasks_mode(tmp_path, monkeypatch):
+    """A shared cache stays readable by the team: not mkstemp's private 0600 (issue 13)."""
+    import os
+
+    monkeypatch.setenv("PIPELINE_DATASETS_CACHE", str(tmp_path / "cache"))
+    old = os.umask(0o022)
+    try:
+        p = datasets.fetch("daisy-heating")
+    finally:
+        os.umask(old)
+    assert p.stat().st_mode & 0o777 == 0o644
