@@ -188,10 +188,11 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
         if path is not None and Path(path).is_dir():
             raise UserError(f"{path}: cannot write the {what} (is a folder); expected a file")
     base_doc = past = None
-    if baseline is not None:
-        from .results import load_results
+    if baseline is not None:  # a baseline of another config, records or methods: refused
+        from .baseline_file import load_baseline
 
-        base_doc = load_results(baseline)
+        base_doc = load_baseline(baseline, config=cfg.source, records=[s.name for s in specs],
+                                 methods=cfg.methods)
     if history is not None and Path(history).exists():
         from .history import load_history
 
@@ -209,11 +210,11 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     comparison = None
     if base_doc is not None:
         from .baseline import Tolerances, compare
+        from .report.regressions import gate_lines
 
         comparison = compare(doc, base_doc, tolerances or Tolerances())
-        extras.regressions = [f.as_row() for f in comparison.regressions]
-        extras.new = [str(f) for f in comparison.new]
-        messages.append(f"{len(comparison.regressions)} regression(s) against {baseline}")
+        extras.comparison = comparison
+        messages.extend(gate_lines(comparison, baseline))  # one line per regressed record
     run_time = datetime.fromisoformat(created)
     if history is not None:
         import polars as pl
