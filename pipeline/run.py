@@ -220,11 +220,12 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
         import polars as pl
 
         from .history import history_rows
-        from .report.history_plots import history_figures
+        from .report.history_plots import baseline_reference, history_figures
 
         rows = history_rows(doc, run_time)  # the file is appended after the report
         frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
-        extras.history = history_figures(frame)
+        extras.history = history_figures(  # normalised to the baseline, else the first run
+            frame, reference=baseline_reference(base_doc) if base_doc is not None else None)
     # the config's output: relative to the config file; the default under ./reports
     target = out_dir or (Path(cfg.base_dir) / cfg.output if cfg.output
                          else Path("reports") / cfg.name)
