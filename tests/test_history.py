@@ -176,6 +176,9 @@ def test_alternating_recommended_method_one_series_per_record_drift_as_ratio():
     assert ratio["p0"][-1] == pytest.approx(1.15 * 1.01)  # the drift (night 5: strejc, +1 %)
     for steady in ("p1", "p2"):  # the method change is a 1 % wiggle, not a drift
         assert np.abs(ratio[steady] - 1).max() <= 0.0101
+    # T means another thing for equal lags: only the nights of the first night's structure
+    t, _ = plot_frame(rows, "T", None, max_lines=12)
+    assert t.height == 3 * 3 and (t.get_column("ratio") == 1.0).all()
     # the dead time (0.5 s, then 0.2 s) is measured against the time scale, never /0
     delay, _ = plot_frame(rows, "delay", None, max_lines=12)
     assert np.isfinite(delay.get_column("ratio").to_numpy()).all()

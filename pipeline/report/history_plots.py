@@ -10,9 +10,12 @@ MSE; 1 is "as the reference", a 10 % gain drift is a line at 1.10.
 The normalisation is the regression gate's (:func:`pipeline.baseline.param_scale`):
 ``1 + (value - reference) / scale``, which is ``value / reference`` for a gain or a time
 constant (scale = |reference|) and keeps a dead time or a zero that starts at 0 finite
-(scale = the model's time scale). The MSE is ``value / reference``. Only ``ok`` fits are
-drawn. With more records than ``max_lines``, the ``max_lines`` records whose last point
-is furthest from 1 are drawn (the title says so): a drift is never crowded out.
+(scale = the model's time scale). The MSE is ``value / reference``. The gain, the dead
+time and the MSE keep their meaning when the recommended structure changes; the other
+parameters are drawn only on runs whose recommended model has the reference's structure
+(a two-lag T is not a first-order T). Only ``ok`` fits are drawn. With more records than
+``max_lines``, the ``max_lines`` records whose last point is furthest from 1 are drawn
+(the title says so): a drift is never crowded out.
 
 Matplotlib's object API with the Agg canvas: no pyplot state, safe in worker threads.
 """
@@ -32,6 +35,8 @@ from ..history import PARAMS
 from ..models import PARAMETERS
 
 MSE = "mse_validation"
+#: What keeps its meaning when the recommended structure changes (the gate's rule too).
+SHARED = ("K", "delay", MSE)
 LABELS = {**{p.name: p.label for p in PARAMETERS.values()}, MSE: "validation MSE"}
 
 #: A record's reference model: ``(structure, params, validation MSE)``.
@@ -128,10 +133,14 @@ def plot_frame(rows: pl.DataFrame, column: str, reference: Mapping[str, Referenc
             row = {"structure": structure, **params, MSE: mse}
         ref = _scale(column, row)
         if ref is not None:
-            refs.append({"record": first["record"], "ref": ref[0], "den": ref[1]})
+            refs.append({"record": first["record"], "ref": ref[0], "den": ref[1],
+                         "ref_structure": row.get("structure")})
     if not refs:
         return pl.DataFrame(), ""
-    frame = (data.join(pl.DataFrame(refs), on="record", how="inner")
+    frame = data.join(pl.DataFrame(refs), on="record", how="inner")
+    if column not in SHARED:  # another structure's T is another quantity: left out
+        frame = frame.filter(pl.col("structure").eq_missing(pl.col("ref_structure")))
+    frame = (frame
              .select("time", "record",
                      (1.0 + (pl.col(column) - pl.col("ref")) / pl.col("den")).alias("ratio")))
     names = frame.get_column("record").unique(maintain_order=True)
