@@ -56,26 +56,40 @@ Records and fits present now but not in the baseline, and fits or records that b
 ok, are listed in ``new``: information, never a failure.
 
 :func:`compare` takes two :class:`~pipeline.schema.ResultsDoc` (a plain dict is validated
-into one first). :func:`accept` (promote a results.json to be the baseline) is the only
-function that touches files.
+into one first). Which baseline a run accepts (the same config, shared records and
+methods), reading it and :func:`accept` (promote a results.json to be the baseline) are in
+:mod:`pipeline.baseline_file`, re-exported here.
+
+The :class:`Comparison` also names each record's recommended model (this run's, else the
+baseline's), so the report, the terminal and JUnit can say per record what drifted on the
+model to use before the per-method detail (:meth:`Comparison.by_record`).
 """
 
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
+from .baseline_file import accept, load_baseline
 from .errors import UserError
-from .files import write_atomic
-from .findings import Comparison, Finding, is_number, num_text, pct_text
+from .findings import (
+    Comparison,
+    Finding,
+    is_number,
+    num_text,
+    pct_text,
+    recommended_fit,
+    tag_recommended,
+)
 from .models import PARAMETERS, STRUCTURES, ProcessModel
-from .results import as_doc, load_results
+from .results import as_doc
 from .schema import FitDoc, RecordDoc, ResultsDoc
+
+__all__ = ["Comparison", "Finding", "Tolerances", "accept", "compare", "load_baseline",
+           "tolerance_problem"]
 
 
 @dataclass(frozen=True)
@@ -93,8 +107,9 @@ class Tolerances:
                  "dynamics_factor": self.dynamics_factor,
                  **{f"tolerance of {k}": v for k, v in self.param_tols.items()}}
         for name, v in named.items():
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise UserError(f"{name} is {v!r}; expected a fraction >= 0, e.g. 0.05")
+            problem = tolerance_problem(name, v)
+            if problem:
+                raise UserError(problem)
 
     def for_param(self, name: str) -> float:
         if name in self.param_tols:
@@ -107,6 +122,15 @@ class Tolerances:
         return self.param_tol * self.dynamics_factor
 
 
+def tolerance_problem(name: str, value) -> str | None:
+    """Why ``value`` is not a tolerance (NaN switches the gate off, a negative one fires on
+    everything, infinity never fires), or None when it is one: a finite fraction >= 0."""
+    if isinstance(value, int | float) and not isinstance(value, bool) and \
+            math.isfinite(value) and value >= 0:
+        return None
+    return f"{name} is {value!r}; expected a finite fraction >= 0, e.g. 0.05"
+
+
 # -- the comparison ----------------------------------------------------------------------
 
 def compare(current: ResultsDoc | dict, baseline: ResultsDoc | dict,
@@ -116,11 +140,14 @@ def compare(current: ResultsDoc | dict, baseline: ResultsDoc | dict,
     current, baseline = as_doc(current), as_doc(baseline)
     cur = {r.name: r for r in current.records}
     base = {r.name: r for r in baseline.records}
+    recommended = {name: recommended_fit(cur.get(name), base.get(name))
+                   for name in {**base, **cur}}
     found: list[Finding] = []
     for name, b in base.items():
         found.extend(_compare_record(name, cur.get(name), b, tol))
     found.extend(_new_item(name, None, None, "record not in the baseline")
                  for name in cur if name not in base)
+    found = [tag_recommended(f, recommended) for f in found]
     missing = tuple(f for f in found if f.kind == "missing")
     regressions = tuple(f for f in found if f.kind not in ("new", "missing") or (
         f.kind == "missing" and tol.missing_is_regression and f.baseline_value == "ok"))
@@ -131,6 +158,7 @@ def compare(current: ResultsDoc | dict, baseline: ResultsDoc | dict,
         settings={"param_tol": tol.param_tol, "param_tols": dict(tol.param_tols),
                   "dynamics_factor": tol.dynamics_factor, "mse_tol": tol.mse_tol,
                   "missing_is_regression": tol.missing_is_regression},
+        recommended={k: v for k, v in recommended.items() if v is not None},
     )
 
 
@@ -359,17 +387,3 @@ def _scale_note(name: str, structure: str | None, params: Mapping[str, float]) -
         if scale != abs(float(params.get(name, 0.0))):
             return f", relative to {num_text(scale)}"
     return ""
-
-
-# -- files (the edges) -------------------------------------------------------------------
-
-def accept(results_path: str | os.PathLike, to_path: str | os.PathLike) -> Path:
-    """Make ``results_path`` the baseline at ``to_path`` (validated, written atomically).
-
-    The bytes are copied unchanged; the target folder is created. Returns ``to_path``.
-    """
-    src = Path(results_path)
-    load_results(src)  # refuse to accept something that is not a valid results file
-    dst = Path(to_path)
-    write_atomic(dst, src.read_bytes(), "baseline")
-    return dst

@@ -83,11 +83,9 @@ def run(
         help="per-parameter tolerance, e.g. --tol T=0.1 (repeatable)")] = None,
 ) -> None:
     """Identify and validate every record a config names; write results.json and reports."""
-    from .baseline import Tolerances
     from .run import run_config
 
-    tolerances = Tolerances(param_tol=param_tol, mse_tol=mse_tol,
-                            param_tols=_tolerances(tol or []))
+    tolerances = _tolerances(tol or [], param_tol=param_tol, mse_tol=mse_tol)
     outcome = run_config(config, out_dir=out_dir, workers=workers, executor=executor,
                          scheduler=scheduler, baseline=baseline, junit=junit, history=history,
                          progress=progress, tolerances=tolerances)
@@ -101,21 +99,33 @@ def run(
     raise typer.Exit(code)
 
 
-def _tolerances(items: list[str]) -> dict[str, float]:
+def _tolerances(items: list[str], *, param_tol: float = 0.05, mse_tol: float = 0.10):
+    """The gate's :class:`~pipeline.baseline.Tolerances` from ``--param-tol``, ``--mse-tol``
+    and each ``--tol PARAMETER=FRACTION``; a NaN, negative or infinite one (the gate would
+    switch off or fire on everything) is one line naming the option."""
+    from .baseline import Tolerances, tolerance_problem
     from .models import PARAMETERS
 
-    out_ = {}
+    for option, name, value in (("--param-tol", "param_tol", param_tol),
+                                ("--mse-tol", "mse_tol", mse_tol)):
+        problem = tolerance_problem(name, value)
+        if problem:
+            raise UserError(f"{option} {value!r}: {problem}")
+    per = {}
     for item in items:
-        name, _, value = item.partition("=")
+        name, eq, value = item.partition("=")
         name = name.strip()
         try:
-            out_[name] = float(value)
+            per[name] = float(value) if eq else float("x")
         except ValueError:
             raise UserError(f"--tol {item!r}: expected PARAMETER=FRACTION, e.g. T=0.1") from None
         if name not in PARAMETERS:
             raise UserError(f"--tol {item!r}: unknown parameter {name!r}; expected one of "
                             + ", ".join(PARAMETERS))
-    return out_
+        problem = tolerance_problem(f"tolerance of {name}", per[name])
+        if problem:
+            raise UserError(f"--tol {item!r}: {problem}")
+    return Tolerances(param_tol=param_tol, mse_tol=mse_tol, param_tols=per)
 
 
 # -- identify / segment ------------------------------------------------------------------

@@ -10,7 +10,11 @@ status ``failed``.
 
 :func:`history_rows` is pure; :func:`append_history` reads the existing file, appends
 (polars ``concat(how="diagonal_relaxed")``, so files written by older versions with fewer
-columns still append), writes a temporary file and renames it over the old one.
+columns still append), writes a temporary file and renames it over the old one, keeping
+the file's mode (:func:`pipeline.files.write_atomic`). A parquet file that is not a
+history (:func:`schema_problem`: a column that is not ours, or one of ours of another
+type) is refused, one line naming the file, and left untouched: appending would rewrite
+it with its types changed.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from __future__ import annotations
 import io
 import math
 import os
+from collections.abc import Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -110,10 +115,31 @@ def load_history(path: str | os.PathLike) -> pl.DataFrame:
     except (OSError, pl.exceptions.PolarsError) as exc:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise UserError(f"{p}: not a readable parquet history file ({first})") from None
-    if "time" not in frame.columns or "record" not in frame.columns:
-        raise UserError(f"{p}: not a pipeline history file; expected columns time, record, "
-                        "event, method, ...")
+    problem = schema_problem(frame.schema)
+    if problem:
+        raise UserError(f"{p}: not a pipeline history file ({problem}); expected the columns "
+                        "of a pipeline history: time (datetime, UTC), record, event, method, "
+                        "status, ..., pipeline_version")
     return frame.sort("time", maintain_order=True)
+
+
+#: The columns every history has had since the first version.
+REQUIRED = ("time", "record", "method")
+
+
+def schema_problem(schema: Mapping[str, pl.DataType]) -> str | None:
+    """What makes ``schema`` not a history's (None when it is one): a required column
+    (:data:`REQUIRED`) missing, a column that is not in :data:`SCHEMA`, or one of ours of
+    another type. A file an older version wrote has fewer columns, never other types."""
+    missing = [c for c in REQUIRED if c not in schema]
+    if missing:
+        return f"no column {missing[0]!r}"
+    for name, dtype in schema.items():
+        if name not in SCHEMA:
+            return f"column {name[:40]!r} is not one of ours"
+        if dtype != SCHEMA[name]:
+            return f"column {name!r} is {dtype}, not {SCHEMA[name]}"
+    return None
 
 
 def run_times(frame: pl.DataFrame) -> list[datetime]:

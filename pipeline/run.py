@@ -195,10 +195,11 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
         if path is not None:
             check_writable(path, what)
     base_doc = past = None
-    if baseline is not None:
-        from .results import load_results
+    if baseline is not None:  # a baseline of another config, records or methods: refused
+        from .baseline_file import load_baseline
 
-        base_doc = load_results(baseline)
+        base_doc = load_baseline(baseline, config=cfg.source, records=[s.name for s in specs],
+                                 methods=cfg.methods)
     if history is not None and Path(history).exists():
         from .history import load_history
 
@@ -216,21 +217,22 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
     comparison = None
     if base_doc is not None:
         from .baseline import Tolerances, compare
+        from .report.regressions import gate_lines
 
         comparison = compare(doc, base_doc, tolerances or Tolerances())
-        extras.regressions = [f.as_row() for f in comparison.regressions]
-        extras.new = [str(f) for f in comparison.new]
-        messages.append(f"{len(comparison.regressions)} regression(s) against {baseline}")
+        extras.comparison = comparison
+        messages.extend(gate_lines(comparison, baseline))  # one line per regressed record
     run_time = datetime.fromisoformat(created)
     if history is not None:
         import polars as pl
 
         from .history import history_rows
-        from .report.history_plots import history_figures
+        from .report.history_plots import baseline_reference, history_figures
 
         rows = history_rows(doc, run_time)  # the file is appended after the report
         frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
-        extras.history = history_figures(frame)
+        extras.history = history_figures(  # normalised to the baseline, else the first run
+            frame, reference=baseline_reference(base_doc) if base_doc is not None else None)
     with parallel_map(workers if executor == "local" else 1, len(records)) as mapper:
         write_run(target, run, doc, title=cfg.report.title or f"System identification: "
                   f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import stat
 from datetime import UTC, datetime, timedelta, timezone
 from io import BytesIO
 
@@ -11,9 +13,16 @@ import pytest
 from matplotlib.image import imread
 
 from pipeline.errors import UserError
-from pipeline.history import PARAMS, append_history, history_rows, load_history, run_times
+from pipeline.history import (
+    PARAMS,
+    SCHEMA,
+    append_history,
+    history_rows,
+    load_history,
+    run_times,
+)
 from pipeline.record import make_record
-from pipeline.report.history_plots import history_figures, plot_frame
+from pipeline.report.history_plots import history_figures, plot_frame, recommended_rows
 from pipeline.results import as_doc
 from pipeline.synth.logs import plan_logs, write_nights
 
@@ -107,25 +116,118 @@ def test_unreadable_history_is_a_user_error(tmp_path):
 def test_history_figures_are_pngs(history):
     figs = history_figures(load_history(history))
     titles = [t for t, _ in figs]
-    assert titles == ["gain K over runs", "time constant T (s) over runs",
-                      "dead time (s) over runs", "validation MSE over runs"]
+    assert titles == [f"{what} over runs, relative to the first run" for what in (
+        "gain K", "time constant T", "dead time", "validation MSE")]
     for _, png in figs:
         assert png.startswith(b"\x89PNG\r\n\x1a\n")
         image = imread(BytesIO(png))
         assert image.shape[0] > 200 and image.shape[1] > 400
     one = history_figures(load_history(history), record="log_001", dpi=30)
-    assert one[0][0] == "gain K over runs: log_001"
+    assert one[0][0] == "gain K over runs, relative to the first run: log_001"
     assert history_figures(load_history(history), record="nope") == []
 
 
-def test_one_series_per_record_and_method_and_fallback_to_best_fits(history):
-    df = load_history(history)
-    frame, note = plot_frame(df, None, max_lines=12)
-    assert note == "" and sorted(frame.get_column("series").unique()) == [
-        f"log_00{i} / {m}" for i in range(2) for m in METHODS]
-    frame, note = plot_frame(df, None, max_lines=2)
-    assert note == " (best fits)" and frame.get_column("best").all()
-    assert frame.get_column("series").n_unique() == 2
-    frame, note = plot_frame(df, None, max_lines=1)
-    assert note == " (best fits) (first 1 of 2 series)"
-    assert frame.get_column("series").unique().to_list() == ["log_000 / first_order"]
+def test_one_series_per_record_on_its_best_fit_normalised_to_the_first_run(history):
+    """These records name no recommended model: their ranked-best fit is drawn."""
+    rows = recommended_rows(load_history(history))
+    assert rows.height == NIGHTS * 2 and (rows.get_column("method") == METHODS[0]).all()
+    frame, note = plot_frame(rows, "K", None, max_lines=12)
+    assert note == "" and sorted(frame.get_column("record").unique()) == ["log_000", "log_001"]
+    last = frame.group_by("record").agg(pl.col("ratio").first().alias("a"),
+                                        pl.col("ratio").last().alias("b"))
+    assert last.get_column("a").to_list() == [1.0, 1.0]
+    assert last.get_column("b").to_numpy() == pytest.approx(1 + DRIFT * (NIGHTS - 1), abs=0.01)
+    frame, note = plot_frame(rows, "K", None, max_lines=1)
+    assert note == " (the 1 of 2 records that moved most)"
+
+
+# -- item 19: the recommended method alternates between nights, the gain drifts ----------
+
+def _alternating_history(nights: int = 6, drift: float = 0.03) -> pl.DataFrame:
+    """Three plants, two methods each night; the recommended one alternates (first_order,
+    then strejc's equal lags), plant p0's gain drifts by ``drift`` per night, the methods'
+    gains differ by 1 % (as two methods do on one log)."""
+    rows = []
+    for night in range(nights):
+        t = START + timedelta(days=night)
+        for p, k0 in enumerate((2.0, 0.5, 8.0)):
+            k = k0 * (1 + drift * night) if p == 0 else k0
+            for method, structure, factor, params in (
+                    ("first_order", "first_order", 1.0, {"T": 5.0, "delay": 0.5}),
+                    ("strejc", "n_lags", 1.01, {"T": 2.5, "n": 2.0, "delay": 0.2})):
+                rows.append({"time": t, "record": f"p{p}", "event": 0, "method": method,
+                             "status": "ok", "structure": structure, "verdict": "ok",
+                             "best": (night % 2 == 0) == (method == "first_order"),
+                             "recommended": (night % 2 == 0) == (method == "first_order"),
+                             "K": k * factor, **params,
+                             "mse_validation": 0.01 * (1 + night % 2),
+                             "pipeline_version": "x"})
+    return pl.DataFrame(rows, schema_overrides={c: SCHEMA[c] for c in rows[0]})
+
+
+def test_alternating_recommended_method_one_series_per_record_drift_as_ratio():
+    df = _alternating_history()
+    rows = recommended_rows(df)
+    assert rows.height == 6 * 3 and set(rows.get_column("method")) == {"first_order", "strejc"}
+    frame, note = plot_frame(rows, "K", None, max_lines=12)
+    assert note == "" and frame.get_column("record").n_unique() == 3  # was 6 series
+    ratio = {r: part.sort("time").get_column("ratio").to_numpy()
+             for (r,), part in frame.group_by("record")}
+    assert ratio["p0"][-1] == pytest.approx(1.15 * 1.01)  # the drift (night 5: strejc, +1 %)
+    for steady in ("p1", "p2"):  # the method change is a 1 % wiggle, not a drift
+        assert np.abs(ratio[steady] - 1).max() <= 0.0101
+    # T means another thing for equal lags: only the nights of the first night's structure
+    t, _ = plot_frame(rows, "T", None, max_lines=12)
+    assert t.height == 3 * 3 and (t.get_column("ratio") == 1.0).all()
+    # the dead time (0.5 s, then 0.2 s) is measured against the time scale, never /0
+    delay, _ = plot_frame(rows, "delay", None, max_lines=12)
+    assert np.isfinite(delay.get_column("ratio").to_numpy()).all()
+    # with more records than lines, the drifted one stays
+    frame, note = plot_frame(rows, "K", None, max_lines=1)
+    assert frame.get_column("record").unique().to_list() == ["p0"]
+    assert note == " (the 1 of 3 records that moved most)"
+    titles = [t for t, _ in history_figures(df, dpi=30)]
+    assert titles[0] == "gain K over runs, relative to the first run"
+    assert "validation MSE over runs, relative to the first run" in titles
+
+
+def test_normalised_to_the_baseline_when_given():
+    rows = recommended_rows(_alternating_history())
+    ref = {"p0": ("first_order", {"K": 2.2, "T": 5.0, "delay": 0.5}, 0.01)}
+    frame, _ = plot_frame(rows, "K", ref, max_lines=12)
+    p0 = frame.filter(pl.col("record") == "p0").get_column("ratio").to_numpy()
+    assert p0[0] == pytest.approx(2.0 / 2.2)
+    p1 = frame.filter(pl.col("record") == "p1").get_column("ratio").to_numpy()
+    assert p1[0] == 1.0  # not in the baseline: its first run
+
+
+# -- item 13: a parquet file that is not our history is refused, untouched ---------------
+
+@pytest.mark.parametrize("frame, needle", [
+    (pl.DataFrame({"time": ["2024-01-01"], "record": ["a"], "method": ["m"]}),
+     "column 'time' is String"),
+    (pl.DataFrame({"time": [START], "record": [1], "method": ["m"]}), "column 'record' is Int64"),
+    (pl.DataFrame({"time": [START], "record": ["a"], "method": ["m"], "temp": [1.0]}),
+     "column 'temp' is not one of ours"),
+    (pl.DataFrame({"time": [START], "record": ["a"]}), "no column 'method'"),
+    (pl.DataFrame({"time": [START.replace(tzinfo=None)], "record": ["a"], "method": ["m"]}),
+     "column 'time' is Datetime"),
+])
+def test_a_foreign_parquet_is_refused_and_kept(tmp_path, frame, needle):
+    path = tmp_path / "foreign.parquet"
+    frame.write_parquet(path)
+    before = path.read_bytes()
+    with pytest.raises(UserError, match="not a pipeline history file") as exc:
+        append_history(path, as_doc({"pipeline_version": "0", "records": []}), START)
+    assert needle in exc.value.message and str(path) in exc.value.message
+    assert path.read_bytes() == before
+
+
+def test_appending_keeps_the_file_mode(tmp_path, history):
+    path = tmp_path / "shared.parquet"
+    path.write_bytes(history.read_bytes())
+    os.chmod(path, 0o664)
+    doc = as_doc({"pipeline_version": "0", "records": [failed_record("bad", "empty")]})
+    append_history(path, doc, START + timedelta(days=30))
+    assert stat.S_IMODE(os.stat(path).st_mode) == 0o664
+    assert load_history(path).height == NIGHTS * 2 * len(METHODS) + 1

@@ -13,10 +13,12 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 
 from ..errors import UserError
 from ..files import check_writable
+from ..findings import Comparison
 from ..grade import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
 from .outdir import publish
+from .regressions import mark_summary, regression_section
 from .sections import collector, record_section, slug
 from .tables import record_verdict, summary_table
 
@@ -25,10 +27,10 @@ MAX_FULL_RECORDS = 20  # "auto": above this, per-record sections keep one overvi
 
 @dataclass
 class Extras:
-    """Optional sections from the batch layer (regressions, history)."""
+    """Optional sections from the batch layer: the gate's comparison with a baseline
+    (:mod:`pipeline.report.regressions` renders it) and the history figures."""
 
-    regressions: list[dict] | None = None
-    new: list[str] = field(default_factory=list)
+    comparison: Comparison | None = None
     history: list[tuple[str, bytes]] = field(default_factory=list)
 
 
@@ -68,9 +70,14 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
                                          anchors):
         sections.append(section)
         files.update(section_files)
+    names = [r.name for r in results]
+    summary, gate = summary_table(results, anchors), None
+    if extras.comparison is not None:
+        gate = regression_section(extras.comparison, dict(zip(names, anchors, strict=True)))
+        summary = mark_summary(summary, extras.comparison, names)
     ctx = {
-        "title": title, "doc": doc, "records": sections,
-        "summary": summary_table(results, anchors), "extras": extras, "history": history,
+        "title": title, "doc": doc, "records": sections, "gate": gate,
+        "summary": summary, "extras": extras, "history": history,
         "n_failed": sum(not r.ok for r in results), "flag_legend": FLAGS,
         "verdicts": {v: sum(record_verdict(r) == v for r in results)
                      for v in ("ok", "warning", "unreliable", "failed")},
