@@ -40,15 +40,6 @@ def _names(items: Iterable[str], limit: int = 3) -> str:
     return shown + (f" and {len(items) - limit} more" if len(items) > limit else "")
 
 
-def read_results(path: str | os.PathLike) -> ResultsDoc:
-    """A results.json (or baseline) file, every problem one :class:`UserError` line."""
-    try:
-        return load_results(path)
-    except RecursionError:  # json gives up on deeply nested arrays: not our shape
-        raise UserError(f"{path}: not a results.json file (nested too deeply); expected an "
-                        "object with a 'records' list") from None
-
-
 def check_baseline(doc: ResultsDoc, where: str, *, config: str | None = None,
                    records: Iterable[str] | None = None,
                    methods: Iterable[str] | str | None = None) -> ResultsDoc:
@@ -81,7 +72,7 @@ def load_baseline(path: str | os.PathLike, *, config: str | None = None,
                   methods: Iterable[str] | str | None = None) -> ResultsDoc:
     """Read the baseline at ``path`` and check that it belongs to this run
     (:func:`check_baseline`)."""
-    return check_baseline(read_results(path), str(path), config=config, records=records,
+    return check_baseline(load_results(path), str(path), config=config, records=records,
                           methods=methods)
 
 
@@ -91,7 +82,7 @@ def accept(results_path: str | os.PathLike, to_path: str | os.PathLike) -> Path:
     The bytes are copied unchanged; the target folder is created. Returns ``to_path``.
     """
     src = Path(results_path)
-    read_results(src)  # refuse to accept something that is not a valid results file
+    load_results(src)  # refuse to accept something that is not a valid results file
     dst = Path(to_path)
     write_atomic(dst, src.read_bytes(), "baseline")
     return dst

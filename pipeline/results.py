@@ -274,6 +274,9 @@ def parse_results(text: str, where: str = "<results>") -> ResultsDoc:
         raw = json.loads(text)
     except json.JSONDecodeError as exc:
         raise UserError(f"{where}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    except RecursionError:  # json gives up on deeply nested arrays: not our shape
+        raise UserError(f"{where}: not a results.json file (nested too deeply); expected an "
+                        "object with a 'records' list") from None
     if not isinstance(raw, dict) or not isinstance(raw.get("records"), list):
         raise UserError(f"{where}: not a results.json file; expected an object with a "
                         "'records' list")
