@@ -244,13 +244,16 @@ def smooth(h: np.ndarray, sigma: float, frac: float = 0.02) -> np.ndarray:
 
 
 def crossing_time(tau: np.ndarray, h: np.ndarray, level: float, sigma: float = 0.0, *,
-                  start: int = 0, falling: bool = False, name: str = "") -> float:
+                  start: int = 0, falling: bool = False, name: str = "",
+                  hs: np.ndarray | None = None, slope: np.ndarray | None = None) -> float:
     """First time at or after index ``start`` where ``h`` reaches ``level``.
 
     Rising by default (``h >= level``); ``falling=True`` looks for ``h <= level``.
     Raises :class:`NotApplicable` when the level is never reached in the window.
+    ``hs`` (``smooth(h, sigma)``) and ``slope`` (``np.gradient(hs, tau)``) may be given
+    when they are already known (:class:`pipeline.prepared.Response`).
     """
-    hs = smooth(h, sigma)
+    hs = smooth(h, sigma) if hs is None else hs
     sgn = -1.0 if falling else 1.0
     above = sgn * (hs[start:] - level) >= 0
     if not above.any():
@@ -262,30 +265,33 @@ def crossing_time(tau: np.ndarray, h: np.ndarray, level: float, sigma: float = 0
     t_c = interp_cross(tau[i - 1], tau[i], hs[i - 1], hs[i], level)
     if sigma <= NOISE_FREE:
         return t_c
-    return _refine_crossing(tau, h, hs, i, t_c, level, sigma)
+    return _refine_crossing(tau, h, hs, i, t_c, level, sigma, slope)
 
 
 def value_at(tau: np.ndarray, h: np.ndarray, t: float, sigma: float = 0.0,
-             half: float | None = None) -> float:
+             half: float | None = None, *, hs: np.ndarray | None = None,
+             slope: np.ndarray | None = None) -> float:
     """The response ``h`` at time ``t`` (read off the graph).
 
     Noise-free: linear interpolation. Noisy: the centre value of a least-squares
     parabola through the raw samples in a symmetric window around ``t`` (half-width
     ``half``, by default where the smoothed response changes by about +-0.15); a
     symmetric window makes the reading unbiased up to the quartic term of the response.
+    ``hs`` and ``slope`` as in :func:`crossing_time`.
     """
     if sigma <= NOISE_FREE or h.size < 7:
         return float(np.interp(t, tau, h))
     dt = float(tau[1] - tau[0])
     if half is None:
-        hs = smooth(h, sigma)
-        slope = abs(float(np.interp(t, tau, np.gradient(hs, tau))))
-        half = 0.15 / slope if slope > 0 else 10 * dt
+        if slope is None:
+            slope = np.gradient(smooth(h, sigma) if hs is None else hs, tau)
+        s_t = abs(float(np.interp(t, tau, slope)))
+        half = 0.15 / s_t if s_t > 0 else 10 * dt
         half = max(half, 5 * dt)
     half = min(half, t - float(tau[0]), float(tau[-1]) - t)
     sel = np.abs(tau - t) <= half
     if sel.sum() < 5:
-        return float(np.interp(t, tau, smooth(h, sigma)))
+        return float(np.interp(t, tau, smooth(h, sigma) if hs is None else hs))
     c2, c1, c0 = np.polyfit(tau[sel] - t, h[sel], 2)
     return float(c0)
 
@@ -296,9 +302,9 @@ def interp_cross(t1, t2, h1, h2, level) -> float:
     return float(t1 + (level - h1) * (t2 - t1) / (h2 - h1))
 
 
-def _refine_crossing(tau, h, hs, i, t_c, level, sigma) -> float:
+def _refine_crossing(tau, h, hs, i, t_c, level, sigma, slope=None) -> float:
     """Local quadratic fit of the raw samples around a preliminary crossing."""
-    slope = np.gradient(hs, tau)[i]
+    slope = (np.gradient(hs, tau) if slope is None else slope)[i]
     if not np.isfinite(slope) or slope == 0:
         return t_c
     # half-width: enough samples to beat the noise, short enough to stay near-quadratic
@@ -315,14 +321,14 @@ def _refine_crossing(tau, h, hs, i, t_c, level, sigma) -> float:
 
 
 def extremum(tau: np.ndarray, h: np.ndarray, lo: int, hi: int, sigma: float,
-             *, kind: str = "max") -> tuple[float, float, int]:
+             *, kind: str = "max", hs: np.ndarray | None = None) -> tuple[float, float, int]:
     """Peak (``kind="max"``) or valley of ``h`` in samples ``[lo, hi)``: ``(t, h, index)``.
 
     Noise-free: the vertex of the parabola through the extreme sample and its neighbours.
     Noisy: the vertex of a least-squares parabola over the samples within ~10 % of the
-    oscillation period around the smoothed extreme.
+    oscillation period around the smoothed extreme. ``hs`` as in :func:`crossing_time`.
     """
-    hs = smooth(h, sigma)
+    hs = smooth(h, sigma) if hs is None else hs
     seg = hs[lo:hi]
     if seg.size == 0:
         raise NotApplicable("no samples where an extremum was expected")
