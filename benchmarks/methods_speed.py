@@ -106,13 +106,15 @@ def main() -> None:
             for name, tree in trees.items():
                 runs.setdefault((name, n), []).append(run_worker(tree, n, args.reps))
     med = {key: sorted(r["seconds"] for r in rs)[len(rs) // 2] for key, rs in runs.items()}
-    print(f"`python benchmarks/methods_speed.py{' --baseline ' + str(args.baseline) if args.baseline else ''}"
+    base = f" --baseline {args.baseline}" if args.baseline else ""
+    print(f"`python benchmarks/methods_speed.py{base}"
           f" --rounds {args.rounds} --reps {args.reps}` on CPython {platform.python_version()}, "
           f"{os.cpu_count()} CPU(s), {platform.machine()}\n")
     head = "| samples after t0 | this checkout (ms/event) | growth exponent |"
     rule = "|---:|---:|---:|"
     if args.baseline:
-        head += " baseline (ms/event) | growth exponent | baseline / this | largest parameter difference |"
+        head += (" baseline (ms/event) | growth exponent | baseline / this |"
+                 " largest parameter difference |")
         rule += "---:|---:|---:|---:|"
     print(head)
     print(rule)

@@ -47,12 +47,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.signal import savgol_filter
 
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import NOISE_FREE
+from ..signal import NOISE_FREE, savgol
 from .base import normalised
 from .charts import (
     STREJC_LEVEL_SUM,
@@ -127,7 +126,7 @@ def _max_slope_noisy(tau: np.ndarray, h: np.ndarray, sigma: float
                      ) -> tuple[float, float, float, float]:
     dt = float(np.median(np.diff(tau)))
     w = min(max(7, int(0.02 * h.size) | 1), h.size if h.size % 2 else h.size - 1)
-    d = savgol_filter(h, w, 2, deriv=1, delta=dt) if w >= 7 else np.gradient(h, tau)
+    d = savgol(h, w, deriv=1, delta=dt) if w >= 7 else np.gradient(h, tau)
     j = int(np.argmax(d))
     tc, m = float(tau[j]), float(d[j])
     if not m > 0:
