@@ -27,11 +27,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import oaconvolve, savgol_coeffs, savgol_filter
 from scipy.special import comb
 from scipy.stats import norm
 
 from .errors import NotApplicable
+from .savgol import savgol
 
 #: Relative noise below which a response is treated as noise-free (pure interpolation).
 NOISE_FREE = 1e-7
@@ -243,32 +243,30 @@ def smooth(h: np.ndarray, sigma: float, frac: float = 0.02) -> np.ndarray:
     return savgol(h, w)
 
 
-#: From this many taps on, :func:`savgol` convolves by overlap-add FFT instead of directly.
-#: A direct convolution costs ``N w`` and ``w`` grows with the window (2 % of it), so the
-#: smoothing of a long event was quadratic in its length; overlap-add costs about
-#: ``N log w``. Measured (benchmarks/methods_speed.py and the crossover in BENCHMARKS.md):
-#: equal at about 128-200 taps, 5x faster at 1,201 taps on 60,000 samples; the two differ
-#: by rounding (below 3e-15 on a unit response). Below the threshold (every event window
-#: under 10,000 samples) the direct path is kept, results identical to the bit.
-SAVGOL_FFT_TAPS = 201
+def _near(tau: np.ndarray, t: float, half: float) -> slice:
+    """The samples that can lie within ``half`` of ``t`` (``tau`` increasing), with a
+    margin of rounding: a local mask ``np.abs(tau[s] - t) <= half`` on them selects
+    exactly what the mask on the whole window would, without a pass over all of it."""
+    pad = 1e-9 * (abs(t) + abs(half)) + 1e-300
+    return slice(int(np.searchsorted(tau, t - half - pad)),
+                 int(np.searchsorted(tau, t + half + pad, side="right")))
 
 
-def savgol(h: np.ndarray, window: int, deriv: int = 0, delta: float = 1.0) -> np.ndarray:
-    """``scipy.signal.savgol_filter(h, window, 2, deriv, delta)`` (mode "interp"), in
-    ``O(N log window)`` for long windows.
+#: The first crossing is searched in blocks growing from this many samples: a reading
+#: near the start of a long window does not compare every sample after it.
+_FIRST_BLOCK = 1024
 
-    The interior is the convolution of ``h`` with :func:`scipy.signal.savgol_coeffs`
-    (:func:`scipy.signal.oaconvolve`); the first and last ``window // 2`` values are
-    ``savgol_filter``'s own polynomial fits of the first and last ``window`` samples,
-    computed by it on those samples (the same fit, the same values)."""
-    if window < SAVGOL_FFT_TAPS or h.size < 2 * window:
-        return savgol_filter(h, window, 2, deriv=deriv, delta=delta)
-    out = oaconvolve(h, savgol_coeffs(window, 2, deriv=deriv, delta=delta, use="conv"),
-                     mode="same")
-    half = window // 2
-    out[:half] = savgol_filter(h[:window], window, 2, deriv=deriv, delta=delta)[:half]
-    out[-half:] = savgol_filter(h[-window:], window, 2, deriv=deriv, delta=delta)[-half:]
-    return out
+
+def _first_reached(hs: np.ndarray, level: float, sgn: float, start: int) -> int | None:
+    """Index of the first ``sgn * (hs - level) >= 0`` at or after ``start`` (None)."""
+    lo, size = start, _FIRST_BLOCK
+    while lo < hs.size:
+        hi = min(hs.size, lo + size)
+        above = sgn * (hs[lo:hi] - level) >= 0
+        if above.any():
+            return lo + int(np.argmax(above))
+        lo, size = hi, 2 * size
+    return None
 
 
 def crossing_time(tau: np.ndarray, h: np.ndarray, level: float, sigma: float = 0.0, *,
@@ -282,12 +280,10 @@ def crossing_time(tau: np.ndarray, h: np.ndarray, level: float, sigma: float = 0
     when they are already known (:class:`pipeline.prepared.Response`).
     """
     hs = smooth(h, sigma) if hs is None else hs
-    sgn = -1.0 if falling else 1.0
-    above = sgn * (hs[start:] - level) >= 0
-    if not above.any():
+    i = _first_reached(hs, level, -1.0 if falling else 1.0, start)
+    if i is None:
         label = name or f"{level:.1%}"
         raise NotApplicable(f"the response never reaches {label} of its change in the window")
-    i = start + int(np.argmax(above))
     if i == 0:
         return float(tau[0])
     t_c = interp_cross(tau[i - 1], tau[i], hs[i - 1], hs[i], level)
@@ -317,10 +313,11 @@ def value_at(tau: np.ndarray, h: np.ndarray, t: float, sigma: float = 0.0,
         half = 0.15 / s_t if s_t > 0 else 10 * dt
         half = max(half, 5 * dt)
     half = min(half, t - float(tau[0]), float(tau[-1]) - t)
-    sel = np.abs(tau - t) <= half
+    near = _near(tau, t, half)
+    sel = np.abs(tau[near] - t) <= half
     if sel.sum() < 5:
         return float(np.interp(t, tau, smooth(h, sigma) if hs is None else hs))
-    c2, c1, c0 = np.polyfit(tau[sel] - t, h[sel], 2)
+    c2, c1, c0 = np.polyfit(tau[near][sel] - t, h[near][sel], 2)
     return float(c0)
 
 
@@ -337,11 +334,12 @@ def _refine_crossing(tau, h, hs, i, t_c, level, sigma, slope=None) -> float:
         return t_c
     # half-width: enough samples to beat the noise, short enough to stay near-quadratic
     half = min(max(0.08 / abs(slope), 3.5 * (tau[1] - tau[0])), t_c - tau[0]) if i > 0 else 0
-    sel = np.abs(tau - t_c) <= half
+    near = _near(tau, t_c, half)
+    sel = np.abs(tau[near] - t_c) <= half
     if sel.sum() < 5:
         return t_c
-    x = tau[sel] - t_c
-    c2, c1, c0 = np.polyfit(x, h[sel], 2)
+    x = tau[near][sel] - t_c
+    c2, c1, c0 = np.polyfit(x, h[near][sel], 2)
     roots = np.roots([c2, c1, c0 - level])
     roots = roots[np.isreal(roots)].real
     roots = roots[np.abs(roots) <= half]
@@ -371,11 +369,12 @@ def extremum(tau: np.ndarray, h: np.ndarray, lo: int, hi: int, sigma: float,
                     return float(tau[j] + xv), float(c0 - c1 * c1 / (4 * c2)), j
         return float(tau[j]), float(h[j]), j
     half = max(0.1 * (tau[hi - 1] - tau[lo]), 3.5 * (tau[1] - tau[0]))
-    sel = np.abs(tau - tau[j]) <= half
+    near = _near(tau, float(tau[j]), half)
+    sel = np.abs(tau[near] - tau[j]) <= half
     if sel.sum() < 5:
         return float(tau[j]), float(hs[j]), j
-    x = tau[sel] - tau[j]
-    c2, c1, c0 = np.polyfit(x, h[sel], 2)
+    x = tau[near][sel] - tau[j]
+    c2, c1, c0 = np.polyfit(x, h[near][sel], 2)
     if c2 == 0 or (kind == "max") != (c2 < 0):
         return float(tau[j]), float(hs[j]), j
     xv = float(np.clip(-c1 / (2 * c2), -half, half))

@@ -51,7 +51,8 @@ from scipy.interpolate import CubicSpline
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import NOISE_FREE, savgol
+from ..savgol import savgol
+from ..signal import NOISE_FREE
 from .base import normalised
 from .charts import (
     STREJC_LEVEL_SUM,
