@@ -14,6 +14,12 @@ contention from other processes hits both alike. Prints a Markdown table: millis
 per event, the ratio baseline / this checkout, the growth exponent ``d log(cost) /
 d log(samples)`` between neighbouring sizes, and the largest relative difference of any
 fitted parameter between the two versions (the results must not change).
+
+    python benchmarks/methods_speed.py --crossover
+
+prints the crossover of :func:`pipeline.savgol.savgol` (overlap-add FFT) against
+``scipy.signal.savgol_filter`` (direct convolution) by window length, interleaved, and
+their largest difference (the reason for ``SAVGOL_FFT_TAPS``).
 """
 
 from __future__ import annotations
@@ -93,10 +99,14 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--reps", type=int, default=5)
     ap.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
+    ap.add_argument("--crossover", action="store_true")
     ap.add_argument("--worker", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
         print(json.dumps(worker(args.worker, args.reps)))
+        return
+    if args.crossover:
+        crossover(args.reps)
         return
     here = Path(__file__).resolve().parent.parent
     trees = {"this": here} | ({"baseline": args.baseline.resolve()} if args.baseline else {})
@@ -107,6 +117,8 @@ def main() -> None:
                 runs.setdefault((name, n), []).append(run_worker(tree, n, args.reps))
     med = {key: sorted(r["seconds"] for r in rs)[len(rs) // 2] for key, rs in runs.items()}
     base = f" --baseline {args.baseline}" if args.baseline else ""
+    if args.sizes != list(SIZES):
+        base += " --sizes " + " ".join(map(str, args.sizes))
     print(f"`python benchmarks/methods_speed.py{base}"
           f" --rounds {args.rounds} --reps {args.reps}` on CPython {platform.python_version()}, "
           f"{os.cpu_count()} CPU(s), {platform.machine()}\n")
@@ -131,6 +143,36 @@ def main() -> None:
                     f"{med[('baseline', n)] / med[('this', n)]:.2f}x | {diff:.1e} |")
         print(row)
         prev = (samples, n)
+
+
+def crossover(reps: int) -> None:
+    """Direct against overlap-add Savitzky-Golay smoothing, by window length."""
+    import numpy as np
+    from scipy.signal import oaconvolve, savgol_coeffs, savgol_filter
+
+    def oa(h, w):  # the interior of pipeline.savgol.savgol, whatever its threshold
+        return oaconvolve(h, savgol_coeffs(w, 2, use="conv"), mode="same")
+
+    print(f"`python benchmarks/methods_speed.py --crossover --reps {reps}`\n")
+    print("| samples | taps | savgol_filter (ms) | overlap-add (ms) | ratio | max difference |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    rng = np.random.default_rng(0)
+    for n in (5_000, 60_000, 500_000):
+        h = 1.0 - np.exp(-np.arange(n) / (n / 5)) + 0.01 * rng.normal(size=n)
+        for w in (51, 101, 201, 401, 1201, 10001):
+            if w > n // 25:
+                continue
+            times: dict[str, list[float]] = {"direct": [], "oa": []}
+            outs = {}
+            for _ in range(reps):
+                for name, f in (("direct", lambda h=h, w=w: savgol_filter(h, w, 2)),
+                                ("oa", lambda h=h, w=w: oa(h, w))):
+                    t0 = time.perf_counter()
+                    outs[name] = f()
+                    times[name].append(time.perf_counter() - t0)
+            d = float(np.max(np.abs((outs["direct"] - outs["oa"])[w:-w])))
+            a, b = (sorted(v)[len(v) // 2] for v in times.values())
+            print(f"| {n:,} | {w} | {1e3 * a:.2f} | {1e3 * b:.2f} | {a / b:.2f}x | {d:.1e} |")
 
 
 def _exponent(prev, samples: int, med: dict, name: str, n: int) -> str:

@@ -13,10 +13,11 @@ from scipy.signal import oaconvolve, savgol_coeffs, savgol_filter
 #: From this many taps on, :func:`savgol` convolves by overlap-add FFT instead of directly.
 #: A direct convolution costs ``N w`` and ``w`` grows with the window (2 % of it), so the
 #: smoothing of a long event was quadratic in its length; overlap-add costs about
-#: ``N log w``. Measured (benchmarks/methods_speed.py and the crossover in BENCHMARKS.md):
-#: equal at about 128-200 taps, 5x faster at 1,201 taps on 60,000 samples; the two differ
-#: by rounding (below 3e-15 on a unit response). Below the threshold (every event window
-#: under 10,000 samples) the direct path is kept, results identical to the bit.
+#: ``N log w``. Measured (``benchmarks/methods_speed.py --crossover``, BENCHMARKS.md):
+#: about equal below ~100 taps, 3x faster at 201 taps and 7-11x at 1,201 taps; the two
+#: differ by rounding (below 6e-15 on a unit response). 201 taps (2 % of 10,000 samples)
+#: keeps the direct path, and results identical to the bit, for every event window under
+#: 10,000 samples (DaISy's and nearly all of the test suite's events).
 SAVGOL_FFT_TAPS = 201
 
 
