@@ -27,11 +27,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
 from scipy.special import comb
 from scipy.stats import norm
 
 from .errors import NotApplicable
+from .savgol import savgol
 
 #: Relative noise below which a response is treated as noise-free (pure interpolation).
 NOISE_FREE = 1e-7
@@ -240,53 +240,84 @@ def smooth(h: np.ndarray, sigma: float, frac: float = 0.02) -> np.ndarray:
     w = min(w, (h.size - 1) | 1 if h.size % 2 == 0 else h.size)
     if w < 5:
         return h
-    return savgol_filter(h, w, 2)
+    return savgol(h, w)
+
+
+def _near(tau: np.ndarray, t: float, half: float) -> slice:
+    """The samples that can lie within ``half`` of ``t`` (``tau`` increasing), with a
+    margin of rounding: a local mask ``np.abs(tau[s] - t) <= half`` on them selects
+    exactly what the mask on the whole window would, without a pass over all of it."""
+    pad = 1e-9 * (abs(t) + abs(half)) + 1e-300
+    return slice(int(np.searchsorted(tau, t - half - pad)),
+                 int(np.searchsorted(tau, t + half + pad, side="right")))
+
+
+#: The first crossing is searched in blocks growing from this many samples: a reading
+#: near the start of a long window does not compare every sample after it.
+_FIRST_BLOCK = 1024
+
+
+def _first_reached(hs: np.ndarray, level: float, sgn: float, start: int) -> int | None:
+    """Index of the first ``sgn * (hs - level) >= 0`` at or after ``start`` (None)."""
+    lo, size = start, _FIRST_BLOCK
+    while lo < hs.size:
+        hi = min(hs.size, lo + size)
+        above = sgn * (hs[lo:hi] - level) >= 0
+        if above.any():
+            return lo + int(np.argmax(above))
+        lo, size = hi, 2 * size
+    return None
 
 
 def crossing_time(tau: np.ndarray, h: np.ndarray, level: float, sigma: float = 0.0, *,
-                  start: int = 0, falling: bool = False, name: str = "") -> float:
+                  start: int = 0, falling: bool = False, name: str = "",
+                  hs: np.ndarray | None = None, slope: np.ndarray | None = None) -> float:
     """First time at or after index ``start`` where ``h`` reaches ``level``.
 
     Rising by default (``h >= level``); ``falling=True`` looks for ``h <= level``.
     Raises :class:`NotApplicable` when the level is never reached in the window.
+    ``hs`` (``smooth(h, sigma)``) and ``slope`` (``np.gradient(hs, tau)``) may be given
+    when they are already known (:class:`pipeline.prepared.Response`).
     """
-    hs = smooth(h, sigma)
-    sgn = -1.0 if falling else 1.0
-    above = sgn * (hs[start:] - level) >= 0
-    if not above.any():
+    hs = smooth(h, sigma) if hs is None else hs
+    i = _first_reached(hs, level, -1.0 if falling else 1.0, start)
+    if i is None:
         label = name or f"{level:.1%}"
         raise NotApplicable(f"the response never reaches {label} of its change in the window")
-    i = start + int(np.argmax(above))
     if i == 0:
         return float(tau[0])
     t_c = interp_cross(tau[i - 1], tau[i], hs[i - 1], hs[i], level)
     if sigma <= NOISE_FREE:
         return t_c
-    return _refine_crossing(tau, h, hs, i, t_c, level, sigma)
+    return _refine_crossing(tau, h, hs, i, t_c, level, sigma, slope)
 
 
 def value_at(tau: np.ndarray, h: np.ndarray, t: float, sigma: float = 0.0,
-             half: float | None = None) -> float:
+             half: float | None = None, *, hs: np.ndarray | None = None,
+             slope: np.ndarray | None = None) -> float:
     """The response ``h`` at time ``t`` (read off the graph).
 
     Noise-free: linear interpolation. Noisy: the centre value of a least-squares
     parabola through the raw samples in a symmetric window around ``t`` (half-width
     ``half``, by default where the smoothed response changes by about +-0.15); a
     symmetric window makes the reading unbiased up to the quartic term of the response.
+    ``hs`` and ``slope`` as in :func:`crossing_time`.
     """
     if sigma <= NOISE_FREE or h.size < 7:
         return float(np.interp(t, tau, h))
     dt = float(tau[1] - tau[0])
     if half is None:
-        hs = smooth(h, sigma)
-        slope = abs(float(np.interp(t, tau, np.gradient(hs, tau))))
-        half = 0.15 / slope if slope > 0 else 10 * dt
+        if slope is None:
+            slope = np.gradient(smooth(h, sigma) if hs is None else hs, tau)
+        s_t = abs(float(np.interp(t, tau, slope)))
+        half = 0.15 / s_t if s_t > 0 else 10 * dt
         half = max(half, 5 * dt)
     half = min(half, t - float(tau[0]), float(tau[-1]) - t)
-    sel = np.abs(tau - t) <= half
+    near = _near(tau, t, half)
+    sel = np.abs(tau[near] - t) <= half
     if sel.sum() < 5:
-        return float(np.interp(t, tau, smooth(h, sigma)))
-    c2, c1, c0 = np.polyfit(tau[sel] - t, h[sel], 2)
+        return float(np.interp(t, tau, smooth(h, sigma) if hs is None else hs))
+    c2, c1, c0 = np.polyfit(tau[near][sel] - t, h[near][sel], 2)
     return float(c0)
 
 
@@ -296,18 +327,19 @@ def interp_cross(t1, t2, h1, h2, level) -> float:
     return float(t1 + (level - h1) * (t2 - t1) / (h2 - h1))
 
 
-def _refine_crossing(tau, h, hs, i, t_c, level, sigma) -> float:
+def _refine_crossing(tau, h, hs, i, t_c, level, sigma, slope=None) -> float:
     """Local quadratic fit of the raw samples around a preliminary crossing."""
-    slope = np.gradient(hs, tau)[i]
+    slope = (np.gradient(hs, tau) if slope is None else slope)[i]
     if not np.isfinite(slope) or slope == 0:
         return t_c
     # half-width: enough samples to beat the noise, short enough to stay near-quadratic
     half = min(max(0.08 / abs(slope), 3.5 * (tau[1] - tau[0])), t_c - tau[0]) if i > 0 else 0
-    sel = np.abs(tau - t_c) <= half
+    near = _near(tau, t_c, half)
+    sel = np.abs(tau[near] - t_c) <= half
     if sel.sum() < 5:
         return t_c
-    x = tau[sel] - t_c
-    c2, c1, c0 = np.polyfit(x, h[sel], 2)
+    x = tau[near][sel] - t_c
+    c2, c1, c0 = np.polyfit(x, h[near][sel], 2)
     roots = np.roots([c2, c1, c0 - level])
     roots = roots[np.isreal(roots)].real
     roots = roots[np.abs(roots) <= half]
@@ -315,14 +347,14 @@ def _refine_crossing(tau, h, hs, i, t_c, level, sigma) -> float:
 
 
 def extremum(tau: np.ndarray, h: np.ndarray, lo: int, hi: int, sigma: float,
-             *, kind: str = "max") -> tuple[float, float, int]:
+             *, kind: str = "max", hs: np.ndarray | None = None) -> tuple[float, float, int]:
     """Peak (``kind="max"``) or valley of ``h`` in samples ``[lo, hi)``: ``(t, h, index)``.
 
     Noise-free: the vertex of the parabola through the extreme sample and its neighbours.
     Noisy: the vertex of a least-squares parabola over the samples within ~10 % of the
-    oscillation period around the smoothed extreme.
+    oscillation period around the smoothed extreme. ``hs`` as in :func:`crossing_time`.
     """
-    hs = smooth(h, sigma)
+    hs = smooth(h, sigma) if hs is None else hs
     seg = hs[lo:hi]
     if seg.size == 0:
         raise NotApplicable("no samples where an extremum was expected")
@@ -337,11 +369,12 @@ def extremum(tau: np.ndarray, h: np.ndarray, lo: int, hi: int, sigma: float,
                     return float(tau[j] + xv), float(c0 - c1 * c1 / (4 * c2)), j
         return float(tau[j]), float(h[j]), j
     half = max(0.1 * (tau[hi - 1] - tau[lo]), 3.5 * (tau[1] - tau[0]))
-    sel = np.abs(tau - tau[j]) <= half
+    near = _near(tau, float(tau[j]), half)
+    sel = np.abs(tau[near] - tau[j]) <= half
     if sel.sum() < 5:
         return float(tau[j]), float(hs[j]), j
-    x = tau[sel] - tau[j]
-    c2, c1, c0 = np.polyfit(x, h[sel], 2)
+    x = tau[near][sel] - tau[j]
+    c2, c1, c0 = np.polyfit(x, h[near][sel], 2)
     if c2 == 0 or (kind == "max") != (c2 < 0):
         return float(tau[j]), float(hs[j]), j
     xv = float(np.clip(-c1 / (2 * c2), -half, half))

@@ -3,13 +3,19 @@
 The array-level toolbox (noise, smoothing, crossings, extrema) is :mod:`pipeline.signal`;
 here it is applied to an :class:`~pipeline.events.EventData`:
 
+* :func:`input_change` - the step's input change ``du``; not applicable when the input
+  did not change (``du`` zero, not finite or within the input's noise);
 * :func:`normalised` - time since t0, fractional response and its noise level, for the
-  self-regulating methods (not applicable to a ramp or an inverse response);
+  self-regulating methods (not applicable to a ramp or an inverse response), as a
+  :class:`~pipeline.prepared.Response`: smoothed and differentiated once per event;
 * :func:`undershoot` - the wrong-way excursion of an inverse response;
 * :func:`band_exit_time` - seed 001 "Time delay": when the output leaves its noise band
   (ERRATA [S1] 14: the first exit of a +-max(1 %, 4 sigma) band);
 * :func:`clip_delay` - a negative computed delay becomes 0, recorded as ``delay_computed``
   and ``delay_clipped`` in every method's diagnostics.
+
+Every reading here is computed once per event (:func:`pipeline.prepared.per_event`) and
+shared by the methods that need it: the same response object, the same smoothing.
 """
 
 from __future__ import annotations
@@ -21,39 +27,69 @@ from scipy.ndimage import uniform_filter1d
 
 from ..errors import NotApplicable
 from ..events import EventData
-from ..signal import NOISE_FREE, interp_cross, smooth
+from ..prepared import Response, per_event
+from ..signal import NOISE_FREE, interp_cross
+
+#: An input change within this many of the input's noise standard deviations is none.
+INPUT_NOISE_Z = 3.0
 
 
-def fraction(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(tau, h, sigma_h)``: time since t0, fractional response (y - y0)/(y_ss - y0) and
-    its noise level; a step with no output change is not applicable."""
-    tau, dy = ev.after()
+@per_event
+def input_change(ev: EventData) -> float:
+    """``du = u_ss - u0`` of a step; :class:`NotApplicable` when the input did not change:
+    ``du`` zero or not finite, or within ``INPUT_NOISE_Z`` standard deviations of the
+    input's noise (read as segmentation reads it, from the median absolute first
+    difference, ``MAD / (0.6745 sqrt 2)``). Every gain ``dy/du`` of a step method is
+    behind this test, so an event whose input did not move gives no division by zero."""
+    du = ev.u_ss - ev.u0
+    if du == 0 or not math.isfinite(du):
+        raise NotApplicable(f"the input did not change (u_ss - u0 = {du:.3g}): no step to "
+                            "read a response to")
+    d = np.diff(ev.u)
+    sigma_u = float(np.median(np.abs(d))) / (0.6745 * math.sqrt(2.0)) if d.size else 0.0
+    if abs(du) <= INPUT_NOISE_Z * sigma_u:
+        raise NotApplicable(f"the input change ({du:.3g}) is within the input's noise "
+                            f"(+-{INPUT_NOISE_Z:g} x {sigma_u:.3g}): no step to read a "
+                            "response to")
+    return du
+
+
+@per_event
+def fraction(ev: EventData) -> Response:
+    """The fractional response (y - y0)/(y_ss - y0) against the time since t0, with its
+    noise level (a :class:`~pipeline.prepared.Response`, unpacking as ``tau, h,
+    sigma_h``); a step whose input or output did not change is not applicable."""
+    if ev.kind == "step":
+        input_change(ev)
     if ev.dy == 0 or not np.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
         raise NotApplicable("the output did not change measurably (|y_ss - y0| <= 3 sigma)")
-    return tau, dy / ev.dy, ev.noise / abs(ev.dy)
+    tau, dy = ev.after()
+    return Response(tau, dy / ev.dy, ev.noise / abs(ev.dy))
 
 
-def normalised(ev: EventData) -> tuple[np.ndarray, np.ndarray, float]:
+@per_event
+def normalised(ev: EventData) -> Response:
     """:func:`fraction` for the self-regulating methods (chains of lags, second order):
     not applicable to a ramp (an integrating response has no steady-state gain) or to an
     inverse response (no chain of lags moves the wrong way first; :func:`undershoot`)."""
     if ev.response == "ramp":
         raise NotApplicable("the output ramps without settling (an integrating process): "
                             "a self-regulating model has no gain for it")
-    tau, h, sigma = fraction(ev)
+    r = fraction(ev)
     refuse_moving_start(ev)
     u = undershoot(ev)
     if u is not None:
         raise NotApplicable(f"the output first moves the wrong way, by {u['depth']:.1%} of "
                             f"its change at {u['t']:.3g} s after the step (an inverse "
                             "response): no chain of lags undershoots")
-    return tau, h, sigma
+    return r
 
 
 #: An undershoot counts when it is deeper than this fraction of the change (and the noise).
 UNDERSHOOT_MIN = 0.02
 
 
+@per_event
 def moving_the_other_way(ev: EventData) -> str | None:
     """Why the output was still heading against the step's change at t0, or None.
 
@@ -92,6 +128,7 @@ def refuse_moving_start(ev: EventData) -> None:
                             "apply (the least-squares fit carries the state)")
 
 
+@per_event
 def undershoot(ev: EventData) -> dict | None:
     """The wrong-way excursion of a step response before it first reaches half its
     change: ``{"depth", "t"}`` (depth a positive fraction of the change, time since t0),
@@ -119,16 +156,17 @@ def undershoot(ev: EventData) -> dict | None:
     return {"depth": depth, "t": float(ev.t[j] - ev.t0)}
 
 
+@per_event
 def band_exit_time(ev: EventData, band_rel: float = 0.01, band_sigma: float = 4.0
                    ) -> tuple[float, float]:
     """``(time since t0, band as a fraction of the change)`` when the output first leaves
     the band ``y0 +- max(band_rel |dy|, band_sigma sigma)`` (seed 001 "Time delay")."""
-    tau, h, sigma = normalised(ev)
-    frac = max(band_rel, band_sigma * sigma)
+    r = normalised(ev)
+    tau, hs = r.tau, r.hs
+    frac = max(band_rel, band_sigma * r.sigma)
     if frac >= 0.5:
         raise NotApplicable(f"the noise band (+-{frac:.0%} of the change) is too wide to see "
                             "where the output starts to move")
-    hs = smooth(h, sigma)
     out = np.abs(hs) > frac
     if not out.any():
         raise NotApplicable("the output never leaves its noise band")

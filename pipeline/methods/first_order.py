@@ -6,7 +6,6 @@ import math
 
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time
 from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register
 
@@ -32,9 +31,9 @@ def first_order(ev: EventData, level: float = LEVEL_T) -> MethodResult:
 
     Not applicable when the output does not change or never reaches the level.
     """
-    tau, h, sigma = normalised(ev)
+    r = normalised(ev)
     K = ev.dy / ev.du
-    t1 = crossing_time(tau, h, level, sigma)
+    t1 = r.crossing(level)
     t_e, frac = band_exit_time(ev)
     g = -math.log1p(-frac)
     delay, ddiag = clip_delay((t_e - g * t1) / (1.0 - g))

@@ -27,12 +27,10 @@ when the output does not change or never reaches 73 %.
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time, value_at
+from ..prepared import Response
 from .base import clip_delay, normalised
 from .charts import (
     HARRIOTT_LEVEL,
@@ -51,14 +49,14 @@ Y_LOW = 0.26
 Y_HIGH = HARRIOTT_Y_MAX
 
 
-def _fixed_point(tau: np.ndarray, h: np.ndarray, sigma: float, t73: float, delay: float,
-                 r: float, iterations: int = 50) -> tuple[float, float, float, float, int]:
+def _fixed_point(resp: Response, t73: float, delay: float, r: float,
+                 iterations: int = 50) -> tuple[float, float, float, float, int]:
     """ERRATA [S2] 10 refinement: ``S = (t73 - Td)/x73(r)``, ``r = chart(y(Td + S/2))``
     repeated until ``r`` settles (a contraction: x73 varies by 2.4 % over the chart)."""
     for it in range(1, iterations + 1):
         S = (t73 - delay) / harriott_x73(r)
         t1 = delay + HARRIOTT_READ_AT * S
-        y1 = value_at(tau, h, t1, sigma)
+        y1 = resp.value_at(t1)
         r_new = harriott_r(y1)
         if abs(r_new - r) < 1e-10:
             return S, t1, y1, r_new, it
@@ -83,15 +81,15 @@ def harriott(ev: EventData, exact_x73: bool = False) -> MethodResult:
     1.278-1.309) and steps 2-3 are repeated to the fixed point, which removes the
     method's own bias (up to -5 % on T1 and +9 % on T2 for two distinct lags).
     """
-    tau, h, sigma = normalised(ev)
+    resp = normalised(ev)
     t33, t70 = read_t33_t70(ev)
     _, delay, raw = two_point(t33, t70, V2)
-    t73 = crossing_time(tau, h, HARRIOTT_LEVEL, sigma)
+    t73 = resp.crossing(HARRIOTT_LEVEL)
     S = (t73 - delay) / HARRIOTT_X73
     if not S > 0:
         raise NotApplicable("the 73 % point lies inside the dead time")
     t1 = delay + HARRIOTT_READ_AT * S
-    y1 = value_at(tau, h, t1, sigma)
+    y1 = resp.value_at(t1)
     diag = {"t0": ev.t0, "t33": ev.t0 + t33, "t70": ev.t0 + t70, **clip_delay(raw)[1],
             "t73": ev.t0 + t73, "y73": ev.y0 + HARRIOTT_LEVEL * ev.dy, "sum_T": S,
             "t1": ev.t0 + t1, "y1": ev.y0 + y1 * ev.dy, "fractional_response": y1}
@@ -103,7 +101,7 @@ def harriott(ev: EventData, exact_x73: bool = False) -> MethodResult:
                "seed 002: the process needs a higher-order or an underdamped model"))
     r = harriott_r(y1)
     if exact_x73:
-        S, t1, y1, r, it = _fixed_point(tau, h, sigma, t73, delay, r)
+        S, t1, y1, r, it = _fixed_point(resp, t73, delay, r)
         diag |= {"sum_T": S, "t1": ev.t0 + t1, "y1": ev.y0 + y1 * ev.dy,
                  "fractional_response": y1, "x73": harriott_x73(r), "iterations": it}
     diag |= {"chart_r": r, "chart_clipped": y1 < HARRIOTT_Y_MIN}

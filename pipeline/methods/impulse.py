@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
+from ..prepared import Response, per_event
 from ..signal import crossing_time, smooth
 from ..simulation import simulate
 from .base import clip_delay
@@ -43,10 +44,12 @@ TAIL_RESIDUAL = 0.01
 
 
 # -- shared readings ------------------------------------------------------------------------
-def _deviation(ev: EventData, base: float) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """``(tau, h, a, sig)``: time since the pulse start and the output deviation from
-    ``base`` scaled by its dominant excursion ``a`` (signed), so that ``h`` peaks near +1;
-    ``sig`` is the noise in units of ``h``."""
+@per_event
+def _deviation(ev: EventData, base: float) -> tuple[Response, float]:
+    """``(response, a)``: time since the pulse start and the output deviation from
+    ``base`` scaled by its dominant excursion ``a`` (signed), so that ``h`` peaks near +1,
+    with the noise in units of ``h`` (read once per event and baseline: both impulse
+    methods start from the pre-pulse baseline)."""
     if ev.area == 0 or not np.isfinite(ev.area):
         raise NotApplicable("the impulse has no area (the input did not leave its baseline)")
     i = ev.i0
@@ -58,7 +61,7 @@ def _deviation(ev: EventData, base: float) -> tuple[np.ndarray, np.ndarray, floa
     a = float(ds[j])
     if a == 0 or abs(a) <= 3 * ev.noise:
         raise NotApplicable("no measurable response to the impulse (peak <= 3 sigma)")
-    return tau, d / a, a, ev.noise / abs(a)
+    return Response(tau, d / a, ev.noise / abs(a)), a
 
 
 def _model_response(ev: EventData, model: ProcessModel) -> np.ndarray:
@@ -185,8 +188,8 @@ def first_order_impulse(ev: EventData, level: float = LEVEL_DECAY) -> MethodResu
 
 
 def _fo_fit(ev: EventData, base: float, level: float) -> dict:
-    tau, h, a, sig = _deviation(ev, base)
-    hs = smooth(h, sig)
+    resp, a = _deviation(ev, base)
+    (tau, h, sig), hs = resp, resp.hs
     # a lag keeps rising while the pulse is on: the peak is not before the pulse end
     i_end = min(int(np.searchsorted(tau, ev.duration)), tau.size - 1)
     j = max(int(np.argmax(hs)), i_end)
@@ -310,22 +313,22 @@ def second_order_impulse(ev: EventData, period: str = "crossings") -> MethodResu
 
 
 def _so_fit(ev: EventData, base: float, period: str) -> dict:
-    tau, h, a, sig = _deviation(ev, base)
-    hs = smooth(h, sig)
+    resp, a = _deviation(ev, base)
+    (tau, h, sig), hs = resp, resp.hs
     thr = max(3 * sig, 1e-9)
     first = np.flatnonzero(hs > thr)
     if first.size == 0 or not (hs[first[0]:] < -thr).any():
         raise NotApplicable("fewer than two baseline crossings: the response does not "
                             "oscillate (overdamped or first order)")
     try:
-        osc = oscillation(tau, h, sig, level=0.0)
+        osc = oscillation(resp, level=0.0)
     except NotApplicable as exc:
         raise NotApplicable(f"no oscillation about the baseline ({exc.reason})") from exc
     i1 = int(np.searchsorted(tau, osc["t1"]))
     i2 = int(np.searchsorted(tau, osc["t2"]))
-    t01 = crossing_time(tau, h, 0.0, sig, start=i1, falling=True, name="the baseline")
+    t01 = resp.crossing(0.0, start=i1, falling=True, name="the baseline")
     try:
-        t02 = crossing_time(tau, h, 0.0, sig, start=max(i2, i1 + 1), name="the baseline")
+        t02 = resp.crossing(0.0, start=max(i2, i1 + 1), name="the baseline")
     except NotApplicable as exc:
         raise NotApplicable("fewer than two baseline crossings: the response does not "
                             "come back across its baseline within the window") from exc

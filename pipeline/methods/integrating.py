@@ -30,6 +30,7 @@ from ..models import ProcessModel
 from ..responses import integrator_lag_step
 from ..signal import smooth
 from ..simulation import simulate
+from .base import input_change
 from .registry import MethodResult, register
 
 
@@ -110,8 +111,7 @@ def integrator_asymptote(ev: EventData) -> MethodResult:
     if ev.response != "ramp":
         raise NotApplicable(f"the output does not end on a steady ramp (response "
                             f"{ev.response!r}): not an integrating process")
-    if ev.du == 0:
-        raise NotApplicable("the input did not change")
+    input_change(ev)
     tau, r = _response(ev)
     half, dt = float(tau[tau.size // 2]), float(np.median(np.diff(tau)))
     T, L, start, gap = 0.0, 0.0, half, np.zeros_like(r)

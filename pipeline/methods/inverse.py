@@ -21,7 +21,6 @@ from scipy.optimize import least_squares
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time, extremum, smooth
 from .base import fraction, refuse_moving_start, undershoot
 from .registry import MethodResult, register
 
@@ -66,21 +65,22 @@ def inverse_response(ev: EventData) -> MethodResult:
     """
     if ev.response == "ramp":
         raise NotApplicable("the output ramps without settling (an integrating process)")
-    tau, h, sigma = fraction(ev)
+    resp = fraction(ev)
+    tau, h, sigma = resp
     refuse_moving_start(ev)
     u = undershoot(ev)
     if u is None:
         raise NotApplicable("no undershoot: the output does not first move the wrong way "
                             "(no right-half-plane zero to read)")
     K = ev.dy / ev.du
-    hs = smooth(h, sigma)
+    hs = resp.hs
     i_m = int(np.searchsorted(tau, u["t"]))
     half = max(3, int(np.argmax(hs[i_m:] >= 0.0)))  # the dip spans [t0, t_x]
     lo, hi = max(0, i_m - half), min(tau.size, i_m + half)
-    t_m, h_m, _ = extremum(tau, h, lo, hi, sigma, kind="min")
-    t_x = crossing_time(tau, h, 0.0, sigma, start=i_m, name="its initial level")
+    t_m, h_m, _ = resp.extremum(lo, hi, kind="min")
+    t_x = resp.crossing(0.0, start=i_m, name="its initial level")
     i_x = int(np.searchsorted(tau, t_x))
-    rise = [crossing_time(tau, h, lv, sigma, start=i_x) for lv in RISE_LEVELS]
+    rise = [resp.crossing(lv, start=i_x) for lv in RISE_LEVELS]
     band = max(0.01, 4 * sigma)
     out = np.flatnonzero(hs[: i_m + 1] < -band)
     k = int(out[0]) if out.size else 0

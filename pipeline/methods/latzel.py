@@ -18,7 +18,6 @@ from __future__ import annotations
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time
 from .base import normalised
 from .charts import LATZEL_TABLE
 from .registry import MethodResult, register
@@ -45,8 +44,8 @@ def latzel(ev: EventData) -> MethodResult:
     90 % of its change in the window. ``mu`` beyond the table ends maps to n = 2 or
     n = 20 (nearest row).
     """
-    tau, h, sigma = normalised(ev)
-    t10, t50, t90 = (crossing_time(tau, h, p, sigma) for p in LEVELS)
+    r = normalised(ev)
+    t10, t50, t90 = (r.crossing(p) for p in LEVELS)
     if not t90 > 0:
         raise NotApplicable("the response is at 90 % already at the step: no rise to read")
     mu = t10 / t90

@@ -14,6 +14,7 @@ from ..errors import NotApplicable
 from ..events import EventData
 from ..models import STRUCTURES, ProcessModel
 from ..refine_record import mismatch, refine_event, result_parts, unchanged
+from .base import input_change
 from .registry import ANY_EVENT, REGISTRY, MethodResult, identify, register
 
 #: The last event the graphical starts were computed for: ``identify(ev, "lsq_...")`` for
@@ -44,6 +45,8 @@ def refinement_id(structure: str) -> str:
 def _refinement(structure: str) -> Callable[..., MethodResult]:
     def method(ev: EventData, **context) -> MethodResult:
         """``context``: ``models`` (starts), ``state``, ``options`` (see refine_event)."""
+        if ev.kind == "step":
+            input_change(ev)  # a "step" whose input did not move: nothing to refine
         reason = mismatch(structure, ev) or unchanged(ev)
         if reason:
             raise NotApplicable(reason)

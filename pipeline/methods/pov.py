@@ -9,7 +9,8 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time, extremum, smooth
+from ..prepared import Response
+from ..signal import crossing_time
 from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register
 from .second_order import (
@@ -69,18 +70,17 @@ def second_order_pov(ev: EventData, band: float = BAND,
     significant against the coloured-noise sigma, period consistent with the rise);
     otherwise ``not_applicable``.
     """
-    if ev.du == 0:
-        raise NotApplicable("the input did not change")
-    tau, h, sigma = normalised(ev)
+    resp = normalised(ev)
+    sigma = resp.sigma
     K = ev.dy / ev.du
-    osc = oscillation(tau, h, sigma)
+    osc = oscillation(resp)
     pov = 100.0 * (osc["h1"] - 1.0)
     if not 0.0 < pov < 100.0:
         raise NotApplicable(f"percent overshoot {pov:.3g} outside (0, 100)")
     zeta = zeta_from_overshoot(pov / 100.0)
-    ts, extrema, half_period = settling_time(tau, h, sigma, osc, band)
+    ts, extrema, half_period = settling_time(resp, osc, band)
     t_e, frac = band_exit_time(ev)
-    check_oscillation(osc, sigma, half_period, crossing_time(tau, h, 1.0, sigma) - t_e,
+    check_oscillation(osc, sigma, half_period, resp.crossing(1.0) - t_e,
                       step_rise(zeta, half_period, frac))
     x_b = time_to_fraction(zeta, 1.0, frac)  # time to the band for wn = 1 (scales 1/wn)
     # t_s counts from the response start: wn zeta (ts - delay) = factor, delay = t_e - x_b/wn
@@ -107,24 +107,25 @@ def second_order_pov(ev: EventData, band: float = BAND,
         ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn, "delay": delay}), diag)
 
 
-def settling_time(tau: np.ndarray, h: np.ndarray, sigma: float, osc: dict,
-                  band: float = BAND) -> tuple[float, list[tuple[float, float]], float]:
-    """``(t_s, extrema, half_period)``: when ``h`` enters ``1 +- band`` for good.
+def settling_time(resp: Response, osc: dict, band: float = BAND
+                  ) -> tuple[float, list[tuple[float, float]], float]:
+    """``(t_s, extrema, half_period)``: when the response enters ``1 +- band`` for good.
 
     The half period is read between two crossings of the steady state (the steepest,
     best-conditioned points): the first on the rise and the first after the peak. The
     extremum ``k`` is then searched in ``t1 + k P +- P/2`` until one lies inside the band.
     Raises :class:`NotApplicable` when the response is still outside the band at the end.
     """
-    c0 = crossing_time(tau, h, 1.0, sigma)
+    tau = resp.tau
+    c0 = resp.crossing(1.0)
     i1 = int(np.searchsorted(tau, osc["t1"]))
-    c1 = crossing_time(tau, h, 1.0, sigma, start=i1, falling=True)
+    c1 = resp.crossing(1.0, start=i1, falling=True)
     P = c1 - c0
     if not P > 0:
         raise NotApplicable("could not read the oscillation's half period")
     extrema = [(float(osc["t1"]), float(osc["h1"]))]
     if osc["h1"] - 1.0 <= band:  # a peak inside the band: settled on the rise
-        return crossing_time(tau, h, 1.0 - band, sigma), extrema, P
+        return resp.crossing(1.0 - band), extrema, P
     k, t_k = 0, float(osc["t1"])
     while True:
         t_next = t_k + P
@@ -134,20 +135,20 @@ def settling_time(tau: np.ndarray, h: np.ndarray, sigma: float, osc: dict,
             raise NotApplicable(f"the response does not settle into the +-{band:.0%} band "
                                 "within the window")
         kind = "min" if k % 2 == 0 else "max"
-        t_n, h_n, _ = extremum(tau, h, lo, hi, sigma, kind=kind)
+        t_n, h_n, _ = resp.extremum(lo, hi, kind=kind)
         if abs(h_n - 1.0) <= band:
             break
         extrema.append((t_n, h_n))
         k, t_k = k + 1, t_n
     i_k = int(np.searchsorted(tau, t_k))
     above = k % 2 == 0  # the last extremum outside the band is a peak
-    ts = local_crossing(tau, h, 1.0 + band if above else 1.0 - band, sigma, start=i_k,
+    ts = local_crossing(resp, 1.0 + band if above else 1.0 - band, start=i_k,
                         falling=above, half=P / 8, name=f"the +-{band:.0%} band edge")
     return ts, extrema, P
 
 
-def local_crossing(tau: np.ndarray, h: np.ndarray, level: float, sigma: float, *,
-                   start: int, falling: bool, half: float, name: str = "") -> float:
+def local_crossing(resp: Response, level: float, *, start: int, falling: bool, half: float,
+                   name: str = "") -> float:
     """First crossing of ``level`` at or after ``start``, for a slowly crossing signal.
 
     :func:`~pipeline.methods.base.crossing_time` refines over ``+-0.08/slope``, which on a
@@ -157,8 +158,8 @@ def local_crossing(tau: np.ndarray, h: np.ndarray, level: float, sigma: float, *
     period: a cubic is exact to ~1e-5 of the amplitude there), root nearest the
     preliminary reading.
     """
-    hs = smooth(h, sigma)
-    t_c = crossing_time(tau, hs, level, 0.0, start=start, falling=falling, name=name)
+    tau, h = resp.tau, resp.h
+    t_c = crossing_time(tau, resp.hs, level, 0.0, start=start, falling=falling, name=name)
     sel = np.abs(tau - t_c) <= half
     if sel.sum() < 6:
         return t_c

@@ -10,8 +10,8 @@ from scipy.optimize import brentq
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
+from ..prepared import Response
 from ..responses import second_order_step
-from ..signal import crossing_time, extremum, smooth
 from .base import band_exit_time, clip_delay, normalised
 from .registry import MethodResult, register
 
@@ -22,13 +22,13 @@ def zeta_from_overshoot(M: float) -> float:
     return -lm / math.sqrt(math.pi**2 + lm * lm)
 
 
-def oscillation(tau: np.ndarray, h: np.ndarray, sigma: float, level: float = 1.0) -> dict:
-    """First peak, first valley and second peak of ``h`` oscillating about ``level``.
+def oscillation(resp: Response, level: float = 1.0) -> dict:
+    """First peak, first valley and second peak of the response oscillating about ``level``.
 
     Returns times and values ``t1, h1, t2, h2, t3, h3`` (``t3`` / ``h3`` may be None).
     Raises :class:`NotApplicable` when there is no overshoot above the noise.
     """
-    hs = smooth(h, sigma)
+    h, hs, sigma = resp.h, resp.hs, resp.sigma
     thr = max(3 * sigma, 1e-4)  # zeta = 0.9 still overshoots by 1.5e-3
     up = np.flatnonzero(hs > level + thr)
     if up.size == 0:
@@ -39,16 +39,16 @@ def oscillation(tau: np.ndarray, h: np.ndarray, sigma: float, level: float = 1.0
         raise NotApplicable("no overshoot: the response rises above its final average but "
                             "never comes back below it (still creeping, not oscillating)")
     b = a + int(down[0])
-    t1, h1, _ = extremum(tau, h, a, b, sigma, kind="max")
+    t1, h1, _ = resp.extremum(a, b, kind="max")
     back = np.flatnonzero(hs[b:] > level)
     c = b + int(back[0]) if back.size else hs.size
-    t2, h2, _ = extremum(tau, h, b, c, sigma, kind="min")
+    t2, h2, _ = resp.extremum(b, c, kind="min")
     out = {"t1": t1, "h1": h1, "t2": t2, "h2": h2, "t3": None, "h3": None}
     if back.size:
         nxt = np.flatnonzero(hs[c:] < level)
         d = c + int(nxt[0]) if nxt.size else None
         if d is not None and d - c >= 3 and h[c:d].max() - level > 3 * sigma:
-            out["t3"], out["h3"], _ = extremum(tau, h, c, d, sigma, kind="max")
+            out["t3"], out["h3"], _ = resp.extremum(c, d, kind="max")
     return out
 
 
@@ -74,9 +74,10 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
     ``t_b`` to get there, ``delay = t_e - t_b``. Not applicable without an overshoot, or
     when the oscillation is not real (:func:`check_oscillation`).
     """
-    tau, h, sigma = normalised(ev)
+    resp = normalised(ev)
+    tau, sigma = resp.tau, resp.sigma
     K = ev.dy / ev.du
-    osc = oscillation(tau, h, sigma)
+    osc = oscillation(resp)
     M = osc["h1"] - 1.0
     if not 0 < M < 1:
         raise NotApplicable(f"overshoot {M:.3g} outside (0, 1)")
@@ -87,9 +88,8 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
                     else 2 * (osc["t2"] - osc["t1"]))
     # The zeros of h - 1 are exactly half a period apart (a delay shifts both); read between
     # many samples they are far less noisy than the flat tops of the peaks.
-    c0 = crossing_time(tau, h, 1.0, sigma)
-    c1 = crossing_time(tau, h, 1.0, sigma, start=int(np.searchsorted(tau, osc["t1"])),
-                       falling=True)
+    c0 = resp.crossing(1.0)
+    c1 = resp.crossing(1.0, start=int(np.searchsorted(tau, osc["t1"])), falling=True)
     T0 = 2 * (c1 - c0) if c1 > c0 else period_peaks
     wn = 2 * math.pi / (T0 * math.sqrt(1 - zeta**2))
     t_e, frac = band_exit_time(ev)

@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time, smooth
+from ..prepared import Response
 from .base import normalised
 from .charts import SMITH_RATIO_MAX, SMITH_RATIO_MIN, smith_lookup
 from .registry import MethodResult, register
@@ -54,9 +54,9 @@ def smith(ev: EventData) -> MethodResult:
 
     See the module docstring for the model cases and the domain.
     """
-    tau, h, sigma = normalised(ev)
-    t20 = crossing_time(tau, h, 0.20, sigma)
-    t60 = crossing_time(tau, h, 0.60, sigma)
+    resp = normalised(ev)
+    t20 = resp.crossing(0.20)
+    t60 = resp.crossing(0.60)
     if not (t60 > t20 > 0):
         raise NotApplicable("the 20 % and 60 % points are not separated after the step")
     ratio = t20 / t60
@@ -81,13 +81,13 @@ def smith(ev: EventData) -> MethodResult:
                                           "T2": tc * math.sqrt(r), "delay": 0.0})
         return MethodResult(model, diag)
     diag["case"] = "underdamped"
-    diag |= _check_overshoot(tau, h, sigma, rd.zeta, tc)
+    diag |= _check_overshoot(resp, rd.zeta, tc)
     model = ProcessModel("second_order", {"K": K, "zeta": rd.zeta, "wn": 1.0 / tc,
                                           "delay": 0.0})
     return MethodResult(model, diag)
 
 
-def _check_overshoot(tau, h, sigma: float, zeta: float, tc: float) -> dict:
+def _check_overshoot(resp: Response, zeta: float, tc: float) -> dict:
     """The underdamped branch predicts an overshoot ``M = exp(-pi zeta/sqrt(1 - zeta^2))``
     at ``t = pi tc/sqrt(1 - zeta^2)``; a response that does not show it is not that
     oscillator (a higher-order lag whose t20/t60 lies just below the undamped limit, or
@@ -96,6 +96,7 @@ def _check_overshoot(tau, h, sigma: float, zeta: float, tc: float) -> dict:
     the overshoot test of :func:`~pipeline.methods.second_order.check_oscillation`) and
     the response's largest excursion above its final value is less than half of it, or
     when the window ends before the predicted peak."""
+    tau, sigma = resp.tau, resp.sigma
     M = math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta**2))
     t_peak = math.pi * tc / math.sqrt(1.0 - zeta**2)
     if M <= Z_PEAK * math.sqrt(2.0) * sigma:
@@ -103,7 +104,7 @@ def _check_overshoot(tau, h, sigma: float, zeta: float, tc: float) -> dict:
     if t_peak > tau[-1]:
         raise NotApplicable(f"zeta = {zeta:.3g} predicts an overshoot of {M:.1%} at "
                             f"{t_peak:.4g} s, after the end of the window")
-    seen = float(np.max(smooth(h, sigma)[tau >= 0.5 * t_peak])) - 1.0
+    seen = float(np.max(resp.hs[tau >= 0.5 * t_peak])) - 1.0
     if seen < 0.5 * M:
         raise NotApplicable(
             f"t20/t60 gives zeta = {zeta:.3g}, an oscillator overshooting by {M:.1%}, but the "

@@ -47,12 +47,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.signal import savgol_filter
 
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import NOISE_FREE, crossing_time, value_at
+from ..savgol import savgol
+from ..signal import NOISE_FREE
 from .base import normalised
 from .charts import (
     STREJC_LEVEL_SUM,
@@ -127,7 +127,7 @@ def _max_slope_noisy(tau: np.ndarray, h: np.ndarray, sigma: float
                      ) -> tuple[float, float, float, float]:
     dt = float(np.median(np.diff(tau)))
     w = min(max(7, int(0.02 * h.size) | 1), h.size if h.size % 2 else h.size - 1)
-    d = savgol_filter(h, w, 2, deriv=1, delta=dt) if w >= 7 else np.gradient(h, tau)
+    d = savgol(h, w, deriv=1, delta=dt) if w >= 7 else np.gradient(h, tau)
     j = int(np.argmax(d))
     tc, m = float(tau[j]), float(d[j])
     if not m > 0:
@@ -179,7 +179,8 @@ def strejc_order(ratio: float, tol: float = FLOOR_TOL) -> tuple[int, float, floa
 def strejc(ev: EventData) -> MethodResult:
     """Strejc's method (seed 002 eqs 14-21): see the module docstring for both cases
     and the domain."""
-    tau, h, sigma = normalised(ev)
+    resp = normalised(ev)
+    tau, h, sigma = resp
     tg = inflection_tangent(tau, h, sigma)
     ratio = tg.ratio
     K = ev.dy / ev.du
@@ -188,10 +189,10 @@ def strejc(ev: EventData) -> MethodResult:
             "tu": tg.tu, "tn": tg.tn, "tu_tn_ratio": ratio, "tu_tn_ratio_se": tg.se,
             "t_tangent_start": ev.t0 + tg.tu, "t_tangent_end": ev.t0 + tg.tu + tg.tn}
     if ratio < CASE_A_BELOW:
-        t72 = crossing_time(tau, h, STREJC_LEVEL_SUM, sigma)
+        t72 = resp.crossing(STREJC_LEVEL_SUM)
         S = t72 / STREJC_X72
         t2 = STREJC_READ_AT * S
-        y2 = value_at(tau, h, t2, sigma)
+        y2 = resp.value_at(t2)
         r = strejc_ratio(y2)
         diag |= {"case": "a", "t72": ev.t0 + t72, "y72": ev.y0 + STREJC_LEVEL_SUM * ev.dy,
                  "sum_T": S, "t2": ev.t0 + t2, "y2": ev.y0 + y2 * ev.dy,
@@ -206,7 +207,7 @@ def strejc(ev: EventData) -> MethodResult:
     tol = max(FLOOR_TOL, 3.0 * tg.se)
     n, ratio_n, yi_printed = strejc_order(ratio, tol)
     yi = strejc_yi_exact(n)
-    t_i = crossing_time(tau, h, yi, sigma)
+    t_i = resp.crossing(yi)
     if not t_i > 0:
         raise NotApplicable("the inflection ordinate is reached at the step itself")
     T = t_i / (n - 1)

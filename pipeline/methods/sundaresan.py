@@ -13,7 +13,6 @@ from __future__ import annotations
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time
 from .base import clip_delay, normalised
 from .registry import MethodResult, register
 
@@ -34,9 +33,9 @@ def sundaresan(ev: EventData) -> MethodResult:
     Domain: not applicable when the output does not change measurably or never reaches
     85.3 % of its change in the window.
     """
-    tau, h, sigma = normalised(ev)
-    t1 = crossing_time(tau, h, LEVEL_LOW, sigma)
-    t2 = crossing_time(tau, h, LEVEL_HIGH, sigma)
+    r = normalised(ev)
+    t1 = r.crossing(LEVEL_LOW)
+    t2 = r.crossing(LEVEL_HIGH)
     if not t2 > t1:
         raise NotApplicable("the 85.3 % point does not come after the 35.3 % point")
     raw = 1.3 * t1 - 0.29 * t2

@@ -9,7 +9,6 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time
 from .base import clip_delay, normalised
 from .registry import MethodResult, register
 
@@ -54,13 +53,11 @@ def first_order_two_point(ev: EventData, levels: tuple[float, float] = LEVELS
     h1, h2 = float(levels[0]), float(levels[1])
     if not 0.0 < h1 < h2 < 1.0:
         raise NotApplicable(f"read levels {levels} must satisfy 0 < h1 < h2 < 1")
-    if ev.du == 0:
-        raise NotApplicable("the input did not change")
-    tau, h, sigma = normalised(ev)
+    r = normalised(ev)
     K = ev.dy / ev.du
-    t1 = crossing_time(tau, h, h1, sigma)
-    i1 = int(np.searchsorted(tau, t1))
-    t2 = crossing_time(tau, h, h2, sigma, start=min(i1, tau.size - 1))
+    t1 = r.crossing(h1)
+    i1 = int(np.searchsorted(r.tau, t1))
+    t2 = r.crossing(h2, start=min(i1, r.tau.size - 1))
     if not t2 > t1:
         raise NotApplicable("the two read points are not in order (response not rising)")
     T = (t2 - t1) / math.log((1.0 - h1) / (1.0 - h2))

@@ -19,7 +19,7 @@ from __future__ import annotations
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..signal import crossing_time
+from ..prepared import per_event
 from .base import clip_delay, normalised
 from .registry import MethodResult, register
 
@@ -29,11 +29,13 @@ V1 = (1.498, 0.498, 1.245)
 V2 = (1.937, 0.937, 0.794)
 
 
+@per_event
 def read_t33_t70(ev: EventData) -> tuple[float, float]:
-    """``(t33, t70)``: times since t0 where the response reaches 33 % and 70 %."""
-    tau, h, sigma = normalised(ev)
-    t33 = crossing_time(tau, h, 0.33, sigma)
-    t70 = crossing_time(tau, h, 0.70, sigma)
+    """``(t33, t70)``: times since t0 where the response reaches 33 % and 70 % (read once
+    per event: both Viteckova methods and Harriott's use them)."""
+    r = normalised(ev)
+    t33 = r.crossing(0.33)
+    t70 = r.crossing(0.70)
     if not t70 > t33:
         raise NotApplicable("the 70 % point does not come after the 33 % point")
     return t33, t70
