@@ -184,7 +184,7 @@ def regular_despite_rounding(t: np.ndarray) -> float | None:
 
 #: A grid whose uniform version at its median interval holds more than this many times
 #: its rows is refused (:func:`check_grid`).
-MAX_GRID_GROWTH = 100
+MAX_GRID_GROWTH = 10
 
 
 def check_grid(t: np.ndarray, name: str, at: Places, row: Callable[[int], int]) -> None:
