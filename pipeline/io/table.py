@@ -173,8 +173,9 @@ def table_to_record(table: Table, data: DataSection, options: TableOptions,
                      options, unit, t_name, table.places)
     rows = Rows(base.t, numbers(table, i_u, u_name), numbers(table, i_y, y_name))
     hint = "; if they are local time, set time_zone" if base.as_utc else ""
-    check_order(rows, options, table.places, hint)
-    rows, merged = merge_duplicates(rows, options, table.places)
+    increasing = check_order(rows, options, table.places, hint)
+    rows, merged = (rows, []) if increasing else merge_duplicates(rows, options,
+                                                                  table.places)
     rows, filled = fill_gaps(rows, options, (u_name, y_name), table.places)
     rows, unwrapped = unwrap_output(rows, options, y_name)
     check_grid(rows.t, t_name, table.places, rows.row)

@@ -138,14 +138,20 @@ def time_base(column: pl.Series | None, n: int, options: TimeOptions, unit: str,
 
 
 def _numeric(numbers: pl.Series, unit: str, name: str, at: Places) -> TimeBase:
+    if numbers.null_count() or not numbers.is_finite().all():
+        _bad_stamp(numbers, name, at)
+    t = to_seconds(numbers.to_numpy(), unit)
+    return _relative(t, unit, name) if t.size > 1 else TimeBase(t, unit)
+
+
+def _bad_stamp(numbers: pl.Series, name: str, at: Places) -> None:
+    """The first empty, NaN or infinite stamp as an error naming its row."""
     _no_empty(numbers.is_null() | numbers.is_nan(), name, at)
     infinite = numbers.is_infinite()
     if infinite.any():
         i = int(infinite.arg_max())
         raise at.error(i, f"time column {name!r} has {numbers[i]}; expected a finite time "
                        "stamp")
-    t = to_seconds(numbers.to_numpy(), unit)
-    return _relative(t, unit, name) if t.size > 1 else TimeBase(t, unit)
 
 
 #: Stamps whose first is more than this many median intervals from zero are epoch-like.
