@@ -5,7 +5,9 @@ Writes t,u,y CSV logs of ``--rows`` (default 1 M and 10 M rows; the 10 M one is 
 subprocess (imports, and a first read of a 1000-row log, done before the measurement):
 
 (a) ``pipeline.load(path, input="u", output="y", time="t")`` -> a Record;
-(b) the floor: ``polars.read_csv(path)`` (inference on its default 100 rows).
+(b) the floor: ``polars.read_csv(path)`` (inference on its default 100 rows);
+(c) for reference, (b) and then ``to_numpy()`` of its columns (polars reads a column in
+    pieces, one per thread's share of the file: contiguous arrays take one copy).
 
 Per run: CPU time (``time.process_time``, all threads) and wall time of the call; the
 growth of the peak RSS (``VmHWM`` reset through ``/proc/self/clear_refs`` just before the
@@ -66,6 +68,10 @@ cpu, wall = time.process_time(), time.perf_counter()
 if variant == "load":
     out = pipeline.load(path, input="u", output="y", time="t")
     rows = out.n_samples
+elif variant == "numpy":
+    out = pl.read_csv(path)
+    arrays = [out[c].to_numpy() for c in out.columns]
+    rows = arrays[0].size
 else:
     out = pl.read_csv(path)
     rows = out.height
@@ -78,7 +84,8 @@ print(json.dumps({"cpu": cpu, "wall": wall, "hwm": status("VmHWM:") - rss0,
                   "anon": peak[0] - anon0 if sample else None, "rows": rows}))
 """
 
-VARIANTS = {"load": "pipeline.load", "bare": "bare pl.read_csv"}
+VARIANTS = {"load": "pipeline.load", "bare": "bare pl.read_csv",
+            "numpy": "read_csv + to_numpy"}
 
 
 def write_log(path: Path, rows: int) -> None:

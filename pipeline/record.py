@@ -108,12 +108,14 @@ def make_record(
     t, u, y, *, name: str, source: str, units: dict[str, str] | None = None,
     initial_input: float | None = None, input_name: str = "u", output_name: str = "y",
     notes: tuple[str, ...] = (), start: str | None = None, copy: bool = True,
+    intervals: np.ndarray | None = None,
 ) -> Record:
     """Validate arrays and build a :class:`Record`; a problem is a :class:`UserError`.
 
     The record holds read-only copies of ``t, u, y``; with ``copy=False`` (a loader whose
     arrays nobody else holds) it holds them as they are, made read-only: a long log is then
-    never copied (issue 14).
+    never copied (issue 14). ``intervals`` are ``np.diff(t)`` when the caller has them
+    (they are reordered here: the caller gives them away).
     """
     t, u, y = (np.array(a, dtype=np.float64, copy=True) if copy else
                np.asarray(a, dtype=np.float64) for a in (t, u, y))
@@ -125,7 +127,7 @@ def make_record(
         _check_values(a, label, source)
     if initial_input is not None and not np.isfinite(initial_input):
         raise UserError(f"{source}: initial_input is {initial_input}; expected a number")
-    dt = np.diff(t)
+    dt = np.diff(t) if intervals is None or intervals.size != t.size - 1 else intervals
     if dt.min() <= 0:
         k = int(np.flatnonzero(dt <= 0)[0])
         raise UserError(

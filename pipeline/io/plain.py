@@ -6,8 +6,8 @@ line-by-line reader of :mod:`.delimited` (which keeps every line's number for it
 messages) costs 8 to 9 times a bare ``polars.read_csv`` (issue 14). Here the guesses
 (delimiter, header, decimal mark) read the first lines only; then polars reads just the
 time, input and output columns (and column 0, to see comment lines) with a declared
-Float64 schema, straight from a memory map of the file (so a name such as ``run[1].csv`` is
-that file, never a glob, issue 13), and the columns become numpy arrays without a copy.
+Float64 schema, straight from the file (``glob=False``: a name such as ``run[1].csv`` is
+that file, issue 13), and the columns become numpy arrays without a copy.
 
 Anything this read cannot vouch for sends the file to the line-by-line reader, which
 says what is wrong with the line it is on: a first look at lines that are not plain
@@ -21,7 +21,6 @@ a quoted field across lines in an unread column shifts the line numbers after it
 from __future__ import annotations
 
 import codecs
-import mmap
 from pathlib import Path
 
 import polars as pl
@@ -83,14 +82,11 @@ def _read(path: Path, data: DataSection, options: TableOptions, delimiter: str |
     wanted = sorted({0, *picked, *([] if i_t is None else [i_t])})
     types = {i: _type(rows, i, i == i_t) if i in picked or i == i_t else pl.String
              for i in wanted}
-    # polars reads a path into a buffer of its own (the whole file, anonymous memory);
-    # a memory map of the file it reads in place: the file's pages are the page cache's
-    with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-        frame = pl.read_csv(
-            mm, has_header=False, separator=_CHARS[delimiter], skip_lines=start - 1,
-            schema={str(i): types.get(i, pl.String) for i in range(len(head))},
-            columns=wanted, decimal_comma=decimal == ",", infer_schema=False,
-            raise_if_empty=False)
+    frame = pl.read_csv(
+        path, has_header=False, separator=_CHARS[delimiter], skip_lines=start - 1,
+        schema={str(i): types.get(i, pl.String) for i in range(len(head))},
+        columns=wanted, decimal_comma=decimal == ",", infer_schema=False, glob=False,
+        raise_if_empty=False)
     if any(frame.null_count().row(0)):
         frame = _without_trailing_blanks(frame, path)
         if any(frame.null_count().row(0)):

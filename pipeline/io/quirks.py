@@ -71,17 +71,19 @@ class Rows:
         return int(k if self.index is None else self.index[k])
 
 
-def check_order(rows: Rows, options: QuirkOptions, at: Places, hint: str = "") -> bool:
+def check_order(rows: Rows, options: QuirkOptions, at: Places,
+                hint: str = "") -> np.ndarray | None:
     """Time going back is an error; a repeated stamp is one unless ``duplicates`` merges.
-    True when the time is strictly increasing (nothing to merge)."""
+    The intervals ``np.diff(rows.t)`` when the time is strictly increasing (nothing to
+    merge; the later checks reuse them), else None."""
     dt = np.diff(rows.t)
     if not dt.size or dt.min() > 0:  # one pass over a long log in the usual case
-        return True
+        return dt
     back = np.flatnonzero(dt < 0)
     same = np.flatnonzero(dt == 0) if options.duplicates == "error" else np.array([], int)
     k = min([*back[:1], *same[:1]], default=None)
     if k is None:
-        return False
+        return None
     a, b = rows.t[k], rows.t[k + 1]
     if dt[k] == 0:
         raise at.error(rows.row(k + 1), f"the time stamp {a:.6g} s repeats; expected "
@@ -136,6 +138,9 @@ def fill_gaps(rows: Rows, options: QuirkOptions, names: tuple[str, str],
         what = (f"{b - a} rows without a value (a drop-out longer than fill_gaps: "
                 f"{options.fill_gaps})" if options.fill_gaps else
                 f"column {col!r} is {'empty' if np.isnan(v) else f'{v:g}'} (a drop-out)")
+        if b - a == rows.t.size:
+            raise at.error(rows.row(a), f"column {col!r} holds no number on any row (empty, "
+                           "nan or inf); expected a signal")
         fix = ("set fill_gaps: N to fill drop-outs of up to N rows" if not options.fill_gaps
                else "set long_gaps: keep_longest to keep the longest stretch without one")
         raise at.error(rows.row(a), f"{what}; expected a number, or {fix}")

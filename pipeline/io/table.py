@@ -173,17 +173,21 @@ def table_to_record(table: Table, data: DataSection, options: TableOptions,
                      options, unit, t_name, table.places)
     rows = Rows(base.t, numbers(table, i_u, u_name), numbers(table, i_y, y_name))
     hint = "; if they are local time, set time_zone" if base.as_utc else ""
-    increasing = check_order(rows, options, table.places, hint)
-    rows, merged = (rows, []) if increasing else merge_duplicates(rows, options,
-                                                                  table.places)
+    dt = check_order(rows, options, table.places, hint)
+    rows, merged = (rows, []) if dt is not None else merge_duplicates(rows, options,
+                                                                      table.places)
+    checked = rows
     rows, filled = fill_gaps(rows, options, (u_name, y_name), table.places)
     rows, unwrapped = unwrap_output(rows, options, y_name)
-    check_grid(rows.t, t_name, table.places, rows.row)
+    if rows.t is not checked.t:
+        dt = None  # rows were merged or dropped: the intervals are computed again
+    check_grid(rows.t, t_name, table.places, rows.row, dt)
     units, from_header = _units(given, unit, unit_from, {"input": u_unit, "output": y_unit})
     notes = [*table.notes, *base.notes, *merged, *filled, *unwrapped, *from_header]
     return make_record(rows.t, rows.u, rows.y, name=name, source=where, units=units,
                        initial_input=data.initial_input, input_name=u_name,
-                       output_name=y_name, notes=tuple(notes), start=base.start, copy=False)
+                       output_name=y_name, notes=tuple(notes), start=base.start, copy=False,
+                       intervals=dt)
 
 
 def _units(given: dict[str, str], unit: str, unit_from: str | None,

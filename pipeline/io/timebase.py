@@ -193,18 +193,19 @@ def regular_despite_rounding(t: np.ndarray) -> float | None:
 MAX_GRID_GROWTH = 10
 
 
-def check_grid(t: np.ndarray, name: str, at: Places, row: Callable[[int], int]) -> None:
+def check_grid(t: np.ndarray, name: str, at: Places, row: Callable[[int], int],
+               dt: np.ndarray | None = None) -> None:
     """Refuse intervals that spread so that a simulation grid (the median interval, see
     :func:`pipeline.simulation.simulate`) would be ``MAX_GRID_GROWTH`` times the rows;
-    ``row(k)`` is the table row of sample ``k``."""
+    ``row(k)`` is the table row of sample ``k``, ``dt`` the intervals when known."""
     if t.size < 3:
         return
-    dt = np.diff(t)
+    dt = np.diff(t) if dt is None else dt
     if (float(t[-1]) - float(t[0])) <= MAX_GRID_GROWTH * t.size * float(dt.min()):
         return  # even the shortest interval keeps the grid small (a regular log: no median)
     k = int(np.argmax(dt))
     longest = float(dt[k])
-    med = float(np.median(dt, overwrite_input=True))
+    med = float(np.median(dt))
     if not med > 0 or longest > MAX_GAP_FACTOR * med or (
             (float(t[-1]) - float(t[0])) / med <= MAX_GRID_GROWTH * t.size):
         return  # a broken log's one jump is make_record's error ("time jumps by")

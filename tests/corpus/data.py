@@ -101,7 +101,7 @@ CASES = [
     Hostile("data_all_nan_column", IDENTIFY, 2,
             files={"log.csv": "time,u,y\n" + "".join(f"{r[0]},{r[1]},nan\n"
                                                      for r in _rows(GOOD))},
-            stderr=("log.csv", "'y'")),
+            stderr=("log.csv: line 2", "column 'y' holds no number on any row")),
     Hostile("data_column_of_strings", IDENTIFY, 2,
             files={"log.csv": "time,u,y\n" + "".join(f"{r[0]},{r[1]},high\n"
                                                      for r in _rows(GOOD))},
