@@ -14,7 +14,8 @@ class Record:
     """One logged experiment.
 
     ``t`` is strictly increasing (seconds), ``u`` and ``y`` are the input and output,
-    all float64 1-D arrays of equal length, read-only (the record owns copies).
+    all float64 1-D arrays of equal length, read-only (copies of the caller's arrays, or a
+    loader's own arrays made read-only, see :func:`make_record`).
     ``sample_time`` is ``None`` when the grid is irregular. ``units["time"]`` is the unit
     the user reads times in (``t`` is seconds whatever it says; :func:`in_time_unit`
     converts); ``start`` is the absolute time of ``t[0]`` (ISO-8601 with its offset) when
@@ -63,6 +64,8 @@ def time_unit(text: str) -> str | None:
 def to_seconds(values, unit: str):
     """Times in ``unit`` (a name of :data:`TIME_UNITS`) as seconds."""
     num, den = TIME_UNITS[unit]
+    if num == den == 1:
+        return values  # seconds already: no copy of a long record's time
     return values * num / den if num != 1 else values / den
 
 
@@ -83,51 +86,88 @@ def infer_sample_time(t: np.ndarray, rel_tol: float = 1e-6) -> float | None:
     """The constant sample time of ``t``, or ``None`` when the grid is irregular."""
     if t.size < 2:
         return None
-    dt = np.diff(t)
-    med = float(np.median(dt))
-    if med > 0 and np.max(np.abs(dt - med)) <= rel_tol * max(med, 1e-300) + 1e-12:
+    return _regular_step(np.diff(t), rel_tol)
+
+
+def _regular_step(dt: np.ndarray, rel_tol: float = 1e-6) -> float | None:
+    """The median of the intervals ``dt`` when every one is within ``rel_tol`` of it
+    (``dt`` is partitioned in place: no copy of a long record's intervals)."""
+    med = float(np.median(dt, overwrite_input=True))
+    if med > 0 and max(float(dt.max()) - med, med - float(dt.min())) <= (
+            rel_tol * max(med, 1e-300) + 1e-12):
         return med
     return None
+
+
+#: Values beyond this magnitude overflow a fit's squared errors (1e150 squared is 1e300,
+#: near float64's largest, 1.8e308), so a record refuses them: the signal is to be scaled.
+LARGEST_VALUE = 1e150
 
 
 def make_record(
     t, u, y, *, name: str, source: str, units: dict[str, str] | None = None,
     initial_input: float | None = None, input_name: str = "u", output_name: str = "y",
-    notes: tuple[str, ...] = (), start: str | None = None,
+    notes: tuple[str, ...] = (), start: str | None = None, copy: bool = True,
+    intervals: np.ndarray | None = None,
 ) -> Record:
-    """Validate arrays and build a :class:`Record`; a problem is a :class:`UserError`."""
-    t, u, y = (np.array(a, dtype=np.float64, copy=True) for a in (t, u, y))
+    """Validate arrays and build a :class:`Record`; a problem is a :class:`UserError`.
+
+    The record holds read-only copies of ``t, u, y``; with ``copy=False`` (a loader whose
+    arrays nobody else holds) it holds them as they are, made read-only: a long log is then
+    never copied (issue 14). ``intervals`` are ``np.diff(t)`` when the caller has them
+    (they are reordered here: the caller gives them away).
+    """
+    t, u, y = (np.array(a, dtype=np.float64, copy=True) if copy else
+               np.asarray(a, dtype=np.float64) for a in (t, u, y))
     if not (t.ndim == u.ndim == y.ndim == 1) or not (t.size == u.size == y.size):
         raise UserError(f"{source}: t, u and y must be 1-D arrays of equal length")
     if t.size < 10:
         raise UserError(f"{source}: {t.size} samples; at least 10 are needed")
     for label, a in (("time", t), (input_name, u), (output_name, y)):
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise UserError(
-                f"{source}: column '{label}' has a missing or non-numeric value at data row "
-                f"{int(bad[0]) + 1}; expected a finite number"
-            )
+        _check_values(a, label, source)
     if initial_input is not None and not np.isfinite(initial_input):
         raise UserError(f"{source}: initial_input is {initial_input}; expected a number")
-    dt = np.diff(t)
-    if np.any(dt <= 0):
+    dt = np.diff(t) if intervals is None or intervals.size != t.size - 1 else intervals
+    if dt.min() <= 0:
         k = int(np.flatnonzero(dt <= 0)[0])
         raise UserError(
             f"{source}: time is not strictly increasing at data row {k + 2} "
             f"({t[k]} then {t[k + 1]}); expected increasing time stamps"
         )
-    med = float(np.median(dt))
-    if np.max(dt) > MAX_GAP_FACTOR * med:
-        k = int(np.argmax(dt))
+    k = int(np.argmax(dt))
+    jump = float(dt[k])
+    sample_time = _regular_step(dt)  # dt is reordered from here on
+    med = sample_time or float(np.median(dt, overwrite_input=True))
+    if jump > MAX_GAP_FACTOR * med:
         raise UserError(
-            f"{source}: time jumps by {dt[k]:.6g} s at data row {k + 2} while the median "
+            f"{source}: time jumps by {jump:.6g} s at data row {k + 2} while the median "
             f"interval is {med:.6g} s; split the log there or remove the gap"
         )
     for a in (t, u, y):
         a.setflags(write=False)  # methods get views of these; nothing may change them
     return Record(
         t=t, u=u, y=y, name=name, source=source, units=dict(units or {}),
-        sample_time=infer_sample_time(t), initial_input=initial_input,
+        sample_time=sample_time, initial_input=initial_input,
         input_name=input_name, output_name=output_name, notes=tuple(notes), start=start,
     )
+
+
+def _check_values(a: np.ndarray, label: str, source: str) -> None:
+    """Every value finite and small enough for a fit's squared errors (LARGEST_VALUE)."""
+    if -LARGEST_VALUE <= a.min() and a.max() <= LARGEST_VALUE:
+        return  # two passes, no temporary arrays (NaN fails both comparisons)
+    finite = np.isfinite(a)
+    if not finite.all():
+        raise UserError(
+            f"{source}: column '{label}' has a missing or non-numeric value at data row "
+            f"{int(np.argmin(finite)) + 1}; expected a finite number"
+        )
+    del finite
+    big = np.abs(a) > LARGEST_VALUE
+    if big.any():
+        k = int(np.argmax(big))
+        raise UserError(
+            f"{source}: column '{label}' has {a[k]:.6g} at data row {k + 1}; values beyond "
+            f"{LARGEST_VALUE:.0e} overflow the squared errors of a fit: scale the signal "
+            "(e.g. a unit with a larger prefix)"
+        )

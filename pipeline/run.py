@@ -14,7 +14,6 @@ Both commands end in :func:`pipeline.analysis.analyse` with options built by
 
 from __future__ import annotations
 
-import glob
 import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -24,8 +23,9 @@ from .analysis import AnalysisOptions, analyse
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
 from .files import check_writable
-from .io import SUFFIXES, load_record
+from .io import load_record
 from .io.options import check_file
+from .io.paths import files_named
 from .results import RecordResult, RunResult
 from .segmentation import SegmentOptions
 
@@ -83,14 +83,7 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
     base = Path(cfg.base_dir)
     files: list[Path] = []
     for pat in patterns:
-        p = Path(os.path.normpath(pat if Path(pat).is_absolute() else base / pat))
-        if p.is_dir():
-            found = sorted(f for f in p.iterdir() if f.suffix.lower() in SUFFIXES)
-        elif any(ch in pat for ch in "*?["):
-            found = sorted(Path(f) for f in glob.glob(str(p), recursive=True)
-                           if Path(f).is_file() and Path(f).suffix.lower() in SUFFIXES)
-        else:
-            found = [p]
+        found = files_named(pat, base)
         if not found:
             raise UserError(f"{cfg.source}: key 'data.path': {pat!r} matches no file")
         files.extend(found)

@@ -29,6 +29,7 @@ from pydantic import BeforeValidator
 from ..errors import UserError
 from ..record import Record
 from .base import DataSection, Format, Places, Strict
+from .plain import read_plain_table
 from .sniff import (
     DELIMITER_ALIASES,
     DELIMITERS,
@@ -61,8 +62,12 @@ class TextOptions(TableOptions, HeaderOptions, TrailingOption):
 
 
 def load_text(path: Path, data: DataSection, options: TextOptions, name: str) -> Record:
-    """One delimited text log as a :class:`Record`."""
-    return table_to_record(read_text_table(path, options), data, options, name)
+    """One delimited text log as a :class:`Record`: a plain file read directly
+    (:mod:`.plain`), any other line by line."""
+    table = read_plain_table(path, data, options, delimiter=options.delimiter,
+                             decimal=options.decimal, header=options.header,
+                             columns=options.columns)
+    return table_to_record(table or read_text_table(path, options), data, options, name)
 
 
 def read_text_table(path: Path, options: TextOptions) -> Table:

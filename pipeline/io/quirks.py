@@ -5,9 +5,10 @@
   are an ``error`` (default), merged into their ``mean``, or only the ``first`` is kept.
 - ``fill_gaps: N``: runs of up to N empty input/output cells (logger drop-outs) are
   filled as :mod:`pipeline.io.align` resamples: the input (a command) held from the
-  sample before, the output interpolated linearly in time. Default 0: an empty cell is
-  an error. A longer run is an error, or with ``long_gaps: keep_longest`` only the longest
-  stretch between such runs is kept. Empty cells at the very start or end have no
+  sample before, the output interpolated linearly in time. An infinite value (``inf``,
+  an overflowed reading) is a drop-out as an empty cell or ``nan`` is. Default 0: an
+  empty cell is an error. A longer run is an error, or with ``long_gaps: keep_longest``
+  only the longest stretch between such runs is kept. Empty cells at the very start or end have no
   neighbours to fill from and are dropped with the run.
 - ``unwrap: P``: an output that wraps with period P (a position counter, an angle in
   degrees with P = 360) is unwrapped: a jump by more than P/2 between samples is taken as
@@ -48,54 +49,71 @@ def unwrap_output(rows: Rows, options: QuirkOptions, name: str) -> tuple[Rows, l
 @dataclass(frozen=True)
 class Rows:
     """Time (s), input and output of the data rows, and each row's index in the file's
-    table (for the lines errors and notes name)."""
+    table (for the lines errors and notes name; None: row k is the table's row k, so a
+    long log needs no index array until a policy drops rows)."""
 
     t: np.ndarray
     u: np.ndarray
     y: np.ndarray
-    index: np.ndarray
+    index: np.ndarray | None = None
 
     def take(self, keep: np.ndarray) -> Rows:
-        return Rows(self.t[keep], self.u[keep], self.y[keep], self.index[keep])
+        return Rows(self.t[keep], self.u[keep], self.y[keep], self.indices(keep))
+
+    def indices(self, keep: np.ndarray) -> np.ndarray:
+        """The table rows of the rows ``keep`` selects (a mask or positions)."""
+        if self.index is not None:
+            return self.index[keep]
+        return np.flatnonzero(keep) if keep.dtype == bool else np.asarray(keep)
+
+    def row(self, k: int) -> int:
+        """The table row of row ``k``."""
+        return int(k if self.index is None else self.index[k])
 
 
-def check_order(rows: Rows, options: QuirkOptions, at: Places, hint: str = "") -> None:
-    """Time going back is an error; a repeated stamp is one unless ``duplicates`` merges."""
+def check_order(rows: Rows, options: QuirkOptions, at: Places,
+                hint: str = "") -> np.ndarray | None:
+    """Time going back is an error; a repeated stamp is one unless ``duplicates`` merges.
+    The intervals ``np.diff(rows.t)`` when the time is strictly increasing (nothing to
+    merge; the later checks reuse them), else None."""
     dt = np.diff(rows.t)
+    if not dt.size or dt.min() > 0:  # one pass over a long log in the usual case
+        return dt
     back = np.flatnonzero(dt < 0)
     same = np.flatnonzero(dt == 0) if options.duplicates == "error" else np.array([], int)
     k = min([*back[:1], *same[:1]], default=None)
     if k is None:
-        return
+        return None
     a, b = rows.t[k], rows.t[k + 1]
     if dt[k] == 0:
-        raise at.error(int(rows.index[k + 1]), f"the time stamp {a:.6g} s repeats; expected "
+        raise at.error(rows.row(k + 1), f"the time stamp {a:.6g} s repeats; expected "
                        "increasing time stamps, or set duplicates: mean (or first) to merge "
                        "the rows of a stamp")
-    raise at.error(int(rows.index[k + 1]), f"time is not strictly increasing ({a:.6g} s then "
+    raise at.error(rows.row(k + 1), f"time is not strictly increasing ({a:.6g} s then "
                    f"{b:.6g} s); expected increasing time stamps{hint}")
 
 
 def merge_duplicates(rows: Rows, options: QuirkOptions,
                      at: Places) -> tuple[Rows, list[str]]:
     """Rows of one stamp merged by ``options.duplicates`` (the time already ordered)."""
-    starts = np.flatnonzero(np.r_[True, np.diff(rows.t) != 0])
-    if starts.size == rows.t.size:
-        return rows, []
+    new = np.diff(rows.t) != 0
+    if new.all():
+        return rows, []  # no repeated stamp: no index array for a long log
+    starts = np.flatnonzero(np.r_[True, new])
     counts = np.diff(np.r_[starts, rows.t.size])
-    first = at(int(rows.index[starts[np.argmax(counts > 1)]]))
+    first = at(rows.row(starts[np.argmax(counts > 1)]))
     merged = (f"{int((counts > 1).sum())} time stamps repeat on "
               f"{int(counts[counts > 1].sum())} rows (the first at {first})")
     if options.duplicates == "first":
         return rows.take(starts), [f"duplicates: {merged}; the first row of each is kept"]
     u, y = (_nanmean(v, starts) for v in (rows.u, rows.y))
-    return Rows(rows.t[starts], u, y, rows.index[starts]), [
+    return Rows(rows.t[starts], u, y, rows.indices(starts)), [
         f"duplicates: {merged}; each stamp's rows are merged into their mean"]
 
 
 def _nanmean(values: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """Mean of each group of rows (from each start to the next), ignoring empty cells."""
-    full = ~np.isnan(values)
+    full = np.isfinite(values)
     sums = np.add.reduceat(np.where(full, values, 0.0), starts)
     n = np.add.reduceat(full.astype(np.int64), starts)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -105,7 +123,9 @@ def _nanmean(values: np.ndarray, starts: np.ndarray) -> np.ndarray:
 def fill_gaps(rows: Rows, options: QuirkOptions, names: tuple[str, str],
               at: Places) -> tuple[Rows, list[str]]:
     """Drop-outs (empty input or output cells) filled, cut or refused by the policy."""
-    empty = np.isnan(rows.u) | np.isnan(rows.y)
+    if np.isfinite(rows.u.sum()) and np.isfinite(rows.y.sum()):
+        return rows, []  # a sum is finite only if every value is (NaN and inf propagate)
+    empty = ~(np.isfinite(rows.u) & np.isfinite(rows.y))
     if not empty.any():
         return rows, []
     runs = _runs(empty)
@@ -114,13 +134,16 @@ def fill_gaps(rows: Rows, options: QuirkOptions, names: tuple[str, str],
     long = [(a, b) for a, b in inner if b - a > options.fill_gaps]
     if options.fill_gaps == 0 or (long and options.long_gaps == "error"):
         a, b = (long or runs)[0]
-        col = names[0] if np.isnan(rows.u[a]) else names[1]
+        col, v = (names[0], rows.u[a]) if not np.isfinite(rows.u[a]) else (names[1], rows.y[a])
         what = (f"{b - a} rows without a value (a drop-out longer than fill_gaps: "
                 f"{options.fill_gaps})" if options.fill_gaps else
-                f"column {col!r} is empty (a drop-out)")
+                f"column {col!r} is {'empty' if np.isnan(v) else f'{v:g}'} (a drop-out)")
+        if b - a == rows.t.size:
+            raise at.error(rows.row(a), f"column {col!r} holds no number on any row (empty, "
+                           "nan or inf); expected a signal")
         fix = ("set fill_gaps: N to fill drop-outs of up to N rows" if not options.fill_gaps
                else "set long_gaps: keep_longest to keep the longest stretch without one")
-        raise at.error(int(rows.index[a]), f"{what}; expected a number, or {fix}")
+        raise at.error(rows.row(a), f"{what}; expected a number, or {fix}")
     notes = []
     keep = np.ones(rows.t.size, bool)
     for a, b in edge + long:
@@ -131,7 +154,7 @@ def fill_gaps(rows: Rows, options: QuirkOptions, names: tuple[str, str],
         keep[:] = False
         keep[a:b] = True
         notes.append(f"long_gaps: {len(long)} drop-out(s) longer than {options.fill_gaps} "
-                     f"rows; {at(int(rows.index[a]))} to {at(int(rows.index[b - 1]))} (the "
+                     f"rows; {at(rows.row(a))} to {at(rows.row(b - 1))} (the "
                      f"longest stretch without one, {b - a} rows) are kept")
     elif edge:
         notes.append(f"fill_gaps: {sum(b - a for a, b in edge)} rows with empty cells at the "
@@ -141,7 +164,7 @@ def fill_gaps(rows: Rows, options: QuirkOptions, names: tuple[str, str],
     if short:
         notes.append(f"fill_gaps: {len(short)} drop-out(s) of up to "
                      f"{max(b - a for a, b in short)} rows filled (input held, output "
-                     f"interpolated), the first at {at(int(rows.index[short[0][0]]))}")
+                     f"interpolated), the first at {at(rows.row(short[0][0]))}")
     return rows.take(keep), notes
 
 
@@ -154,10 +177,10 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def _filled(rows: Rows) -> Rows:
     """Every empty cell between two full rows filled: input held, output interpolated."""
     u = rows.u.copy()
-    full_u = ~np.isnan(u)
+    full_u = np.isfinite(u)
     last = np.maximum.accumulate(np.where(full_u, np.arange(u.size), 0))
     u = np.where(full_u, u, u[last])
-    full_y = ~np.isnan(rows.y)
+    full_y = np.isfinite(rows.y)
     y = np.interp(rows.t, rows.t[full_y], rows.y[full_y]) if full_y.any() else rows.y
     y = np.where(full_y, rows.y, y)
     return Rows(rows.t, u, y, rows.index)

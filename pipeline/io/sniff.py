@@ -60,7 +60,17 @@ def split(line: str, delimiter: str) -> list[str]:
     char = DELIMITERS[delimiter]
     if char is None:
         return line.split()
-    return next(csv.reader([line], delimiter=char))
+    if len(line) < _FIELD_LIMIT:
+        return next(csv.reader([line], delimiter=char))
+    # csv refuses a field over its limit (128 KiB): a huge header line is still a line
+    old = csv.field_size_limit(len(line) + 1)
+    try:
+        return next(csv.reader([line], delimiter=char))
+    finally:
+        csv.field_size_limit(old)
+
+
+_FIELD_LIMIT = csv.field_size_limit()
 
 
 def sniff_delimiter(lines: list[str], where: str) -> str:

@@ -25,7 +25,7 @@ from ..errors import UserError
 from ..record import Record, make_record
 from .base import DataSection, Places, Strict
 from .quirks import QuirkOptions, Rows, check_order, fill_gaps, merge_duplicates, unwrap_output
-from .timebase import TimeOptions, display_unit, time_base
+from .timebase import TimeOptions, check_grid, display_unit, time_base
 
 _UNIT = re.compile(r"(.*?)\s*(?:\(([^()]*)\)|\[([^\[\]]*)\])")
 
@@ -53,6 +53,8 @@ class Table:
     ``noun`` is what a column is called in this format's messages (``column``,
     ``variable``); ``left_out`` names columns that are in the file but not in the table,
     with the reason (a .mat variable of another length); ``notes`` are the reader's.
+    A reader that read only some columns (the ones a ``data:`` section names) says which:
+    ``frame``'s k-th column is then the file's column ``positions[k]``.
     """
 
     frame: pl.DataFrame
@@ -61,10 +63,15 @@ class Table:
     noun: str = "column"
     left_out: dict[str, str] | None = None
     notes: tuple[str, ...] = ()
+    positions: tuple[int, ...] | None = None
 
     @property
     def path(self) -> Path:
         return self.places.path
+
+    def column(self, i: int) -> pl.Series:
+        """The file's column ``i``."""
+        return self.frame.to_series(i if self.positions is None else self.positions.index(i))
 
 
 def split_unit(name: str) -> tuple[str, str | None]:
@@ -123,19 +130,23 @@ def _listing(table: Table) -> str:
 
 
 def numbers(table: Table, i: int, label: str) -> np.ndarray:
-    """Column ``i`` as float64, NaN where a cell is empty (or NaN); text is an error."""
-    s = table.frame.to_series(i)
+    """Column ``i`` as float64, NaN where a cell is empty (or NaN); text is an error. An
+    infinite value (``inf``, an overflowed reading) is kept: the drop-out policy treats it
+    as it treats NaN (:func:`~.quirks.fill_gaps`)."""
+    s = table.column(i)
+    if s.dtype == pl.Float64 and not s.null_count():
+        return s.to_numpy()  # one chunk: a read-only view of polars' buffer, no copy
     if s.dtype == pl.String:
         text = s.str.strip_chars()
         values = text.cast(pl.Float64, strict=False)
         bad = values.is_null() & text.is_not_null() & (text != "")
     elif s.dtype.is_numeric() or s.dtype in (pl.Boolean, pl.Null):
         values = s.cast(pl.Float64)
-        bad = pl.Series([False] * s.len())
+        bad = pl.repeat(False, s.len(), eager=True)
     else:
         values, bad = s.cast(pl.Float64, strict=False), s.is_not_null()
-    out = values.fill_null(np.nan).to_numpy().astype(np.float64)
-    bad = bad.to_numpy() | np.isinf(out)
+    out = np.asarray(values.fill_null(np.nan).to_numpy(), dtype=np.float64)
+    bad = bad.to_numpy()
     if bad.any():
         k = int(np.argmax(bad))
         raise table.places.error(k, f"{table.noun} {label!r} has {str(s[k])!r}; expected a "
@@ -158,20 +169,25 @@ def table_to_record(table: Table, data: DataSection, options: TableOptions,
     t_name, t_unit = split_unit(table.names[i_t]) if i_t is not None else ("", None)
     given = data.unit_map()
     unit, unit_from = display_unit(options, given.get("time"), t_unit, where)
-    base = time_base(None if i_t is None else table.frame.to_series(i_t), table.frame.height,
+    base = time_base(None if i_t is None else table.column(i_t), table.frame.height,
                      options, unit, t_name, table.places)
-    rows = Rows(base.t, numbers(table, i_u, u_name), numbers(table, i_y, y_name),
-                np.arange(table.frame.height))
+    rows = Rows(base.t, numbers(table, i_u, u_name), numbers(table, i_y, y_name))
     hint = "; if they are local time, set time_zone" if base.as_utc else ""
-    check_order(rows, options, table.places, hint)
-    rows, merged = merge_duplicates(rows, options, table.places)
+    dt = check_order(rows, options, table.places, hint)
+    rows, merged = (rows, []) if dt is not None else merge_duplicates(rows, options,
+                                                                      table.places)
+    checked = rows
     rows, filled = fill_gaps(rows, options, (u_name, y_name), table.places)
     rows, unwrapped = unwrap_output(rows, options, y_name)
+    if rows.t is not checked.t:
+        dt = None  # rows were merged or dropped: the intervals are computed again
+    check_grid(rows.t, t_name, table.places, rows.row, dt)
     units, from_header = _units(given, unit, unit_from, {"input": u_unit, "output": y_unit})
     notes = [*table.notes, *base.notes, *merged, *filled, *unwrapped, *from_header]
     return make_record(rows.t, rows.u, rows.y, name=name, source=where, units=units,
                        initial_input=data.initial_input, input_name=u_name,
-                       output_name=y_name, notes=tuple(notes), start=base.start)
+                       output_name=y_name, notes=tuple(notes), start=base.start, copy=False,
+                       intervals=dt)
 
 
 def _units(given: dict[str, str], unit: str, unit_from: str | None,

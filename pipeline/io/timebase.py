@@ -10,6 +10,14 @@
   and a stamp in the skipped spring hour is an error; without ``time_zone`` they are taken
   as UTC (with a note). The absolute start is kept (``Record.start``, ISO-8601 with offset).
 - Without a time column, ``sample_time`` (in ``time_unit``) spaces the rows.
+- **Epoch stamps**: numeric times that start far from zero (more than a million steps,
+  e.g. Unix time 1.7e9 s at 10 Hz) are made relative to the first, with a note; float64
+  holds such a stamp only to about 2e-7 s, so a grid that is regular but for that
+  rounding (:func:`regular_despite_rounding`) is put back on its exact steps.
+- **A grid that is no sampling** (:func:`check_grid`): irregular intervals whose uniform
+  grid at the median interval would need more than ``MAX_GRID_GROWTH`` times the rows (a
+  crafted 1 ms / 0.9 s grid) are refused with one line: simulating on such a grid costs
+  minutes; the log is to be resampled first.
 
 The record's ``units["time"]`` is the unit the user reads times in (``time_unit``); the
 record itself is always in seconds.
@@ -18,6 +26,7 @@ record itself is always in seconds.
 from __future__ import annotations
 
 import zoneinfo
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Annotated, Literal
@@ -27,7 +36,7 @@ import polars as pl
 from pydantic import AfterValidator, BeforeValidator, Field, field_validator
 
 from ..errors import UserError
-from ..record import TIME_UNITS, time_unit, to_seconds
+from ..record import MAX_GAP_FACTOR, TIME_UNITS, time_unit, to_seconds
 from .base import Places, Strict
 
 
@@ -129,8 +138,81 @@ def time_base(column: pl.Series | None, n: int, options: TimeOptions, unit: str,
 
 
 def _numeric(numbers: pl.Series, unit: str, name: str, at: Places) -> TimeBase:
+    if numbers.null_count() or not numbers.is_finite().all():
+        _bad_stamp(numbers, name, at)
+    t = to_seconds(numbers.to_numpy(), unit)
+    return _relative(t, unit, name) if t.size > 1 else TimeBase(t, unit)
+
+
+def _bad_stamp(numbers: pl.Series, name: str, at: Places) -> None:
+    """The first empty, NaN or infinite stamp as an error naming its row."""
     _no_empty(numbers.is_null() | numbers.is_nan(), name, at)
-    return TimeBase(to_seconds(numbers.to_numpy(), unit), unit)
+    infinite = numbers.is_infinite()
+    if infinite.any():
+        i = int(infinite.arg_max())
+        raise at.error(i, f"time column {name!r} has {numbers[i]}; expected a finite time "
+                       "stamp")
+
+
+#: Stamps whose first is more than this many median intervals from zero are epoch-like.
+EPOCH_STEPS = 1e6
+
+
+def _relative(t: np.ndarray, unit: str, name: str = "") -> TimeBase:
+    """Epoch-like times (see the module docstring) relative to the first, else as read."""
+    step = float(np.median(np.diff(t[: 10_000])))  # a long log's first 10 k are enough
+    if not step > 0 or abs(t[0]) <= EPOCH_STEPS * step:
+        return TimeBase(t, unit)
+    t0 = float(t[0])
+    notes = [f"time column {name!r} starts at {t0:.10g} s (epoch stamps): times are "
+             "relative to the first stamp"]
+    regular = regular_despite_rounding(t)
+    rel = t - t0 if regular is None else np.arange(t.size) * regular
+    if regular is not None:
+        notes[0] += (f"; their float64 rounding (up to {np.spacing(abs(t0)):.2g} s) taken "
+                     f"out: a regular grid of {regular:.6g} s")
+    return TimeBase(rel, unit, notes=tuple(notes))
+
+
+def regular_despite_rounding(t: np.ndarray) -> float | None:
+    """The exact step of times that are a regular grid but for float64's rounding of their
+    magnitude (Unix stamps: 1.7e9 s are held to 2.4e-7 s, which a 0.1 s grid's regularity
+    test, 1e-6 of the step, does not allow); None when they are not. The step is the
+    mean interval (the span over the intervals), which the rounding barely touches."""
+    dt = np.diff(t)
+    step = (float(t[-1]) - float(t[0])) / (t.size - 1)
+    rounding = 4 * float(np.spacing(max(abs(float(t[0])), abs(float(t[-1])))))
+    if step > 0 and max(float(dt.max()) - step, step - float(dt.min())) <= (
+            1e-6 * step + rounding):
+        return step
+    return None
+
+
+#: A grid whose uniform version at its median interval holds more than this many times
+#: its rows is refused (:func:`check_grid`).
+MAX_GRID_GROWTH = 10
+
+
+def check_grid(t: np.ndarray, name: str, at: Places, row: Callable[[int], int],
+               dt: np.ndarray | None = None) -> None:
+    """Refuse intervals that spread so that a simulation grid (the median interval, see
+    :func:`pipeline.simulation.simulate`) would be ``MAX_GRID_GROWTH`` times the rows;
+    ``row(k)`` is the table row of sample ``k``, ``dt`` the intervals when known."""
+    if t.size < 3:
+        return
+    dt = np.diff(t) if dt is None else dt
+    if (float(t[-1]) - float(t[0])) <= MAX_GRID_GROWTH * t.size * float(dt.min()):
+        return  # even the shortest interval keeps the grid small (a regular log: no median)
+    k = int(np.argmax(dt))
+    longest = float(dt[k])
+    med = float(np.median(dt))
+    if not med > 0 or longest > MAX_GAP_FACTOR * med or (
+            (float(t[-1]) - float(t[0])) / med <= MAX_GRID_GROWTH * t.size):
+        return  # a broken log's one jump is make_record's error ("time jumps by")
+    raise at.error(row(k + 1), f"time column {name!r}: intervals from {med:.3g} s (the median) "
+                   f"to {longest:.3g} s; on one grid of the median interval the log's "
+                   f"{t.size} rows would be {(t[-1] - t[0]) / med:.3g} samples; expected a "
+                   "sampled log with a steady interval: resample it onto a uniform grid")
 
 
 def _no_empty(empty: pl.Series, name: str, at: Places) -> None:
