@@ -12,7 +12,11 @@ Algorithm (pure function of the record):
    strength is the area ``A = sum (u - u0) dt`` (zero-order hold). A one-sample spike is a
    pulse too, if it clears twice the threshold (a one- or two-sample blip just over the
    bar is noise on top of a small level shift). Otherwise it is a step to a new level
-   (trimmed mean of its plateau).
+   (trimmed mean of its plateau). No event without an input change: a step whose levels
+   differ by at most half the threshold is the pulse it was when the input came back to
+   its level by the plateau's start, else it joins the window before it; so does a pulse
+   of next to no area (a doublet). The scan (:mod:`pipeline.edges`) is linear in samples
+   and events; extreme magnitudes are scaled first (:mod:`pipeline.magnitudes`).
 4. Each event's window runs to the next event or the end of the record. ``y0`` is the mean
    of the settled output before ``t0``: the whole baseline before the first event, the
    tail of the previous window before a later one, or the first ``head_samples`` (those
