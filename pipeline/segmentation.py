@@ -12,7 +12,11 @@ Algorithm (pure function of the record):
    strength is the area ``A = sum (u - u0) dt`` (zero-order hold). A one-sample spike is a
    pulse too, if it clears twice the threshold (a one- or two-sample blip just over the
    bar is noise on top of a small level shift). Otherwise it is a step to a new level
-   (trimmed mean of its plateau).
+   (trimmed mean of its plateau). No event without an input change: a step whose levels
+   differ by at most half the threshold is the pulse it was when the input came back to
+   its level by the plateau's start, else it joins the window before it; so does a pulse
+   of next to no area (a doublet). The scan (:mod:`pipeline.edges`) is linear in samples
+   and events; extreme magnitudes are scaled first (:mod:`pipeline.magnitudes`).
 4. Each event's window runs to the next event or the end of the record. ``y0`` is the mean
    of the settled output before ``t0``: the whole baseline before the first event, the
    tail of the previous window before a later one, or the first ``head_samples`` (those
@@ -54,9 +58,10 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.stats import trim_mean
 
+from .edges import Raw, as_pulse, departure, scan
 from .events import Event, EventData
+from .magnitudes import Scale, exponent
 from .record import Record, make_record
 from .signal import noise_estimate, noise_sigma, smooth
 
@@ -79,17 +84,15 @@ class SegmentOptions:
     drift_span: float = 0.25
 
 
-@dataclass(frozen=True)
-class _Raw:
-    kind: str
-    k: int  # first sample off the old level
-    j: int  # first sample of the new plateau (step) / back on the baseline (impulse)
-    level_before: float
-
-
 def input_threshold(u: np.ndarray, initial_input: float | None, opt: SegmentOptions
                     ) -> tuple[float, float]:
     """``(threshold, sigma_u)`` for an input change to count as an event."""
+    e = exponent(float(np.max(np.abs(u))) if u.size else 0.0)
+    if e:  # extreme magnitudes: computed scaled (exactly, by a power of two)
+        ii = None if initial_input is None else math.ldexp(initial_input, -e)
+        ms = None if opt.min_step is None else math.ldexp(opt.min_step, -e)
+        thr, sig = input_threshold(np.ldexp(u, -e), ii, replace(opt, min_step=ms))
+        return math.ldexp(thr, e), math.ldexp(sig, e)
     d = np.diff(u)
     sigma_u = float(1.4826 * np.median(np.abs(d - np.median(d))) / math.sqrt(2)) if d.size else 0
     # 0.5 / 99.5 percentiles: one huge spike must not raise the bar above the real steps
@@ -104,90 +107,52 @@ def input_threshold(u: np.ndarray, initial_input: float | None, opt: SegmentOpti
 def segment(record: Record, options: SegmentOptions | None = None) -> list[Event]:
     """Find the step and impulse events of ``record`` (see the module docstring)."""
     opt = options or SegmentOptions()
-    t, u, _y = record.t, record.u, record.y
-    n = u.size
+    scale = Scale.of(record)
+    if scale.needed:  # extreme magnitudes (issue 13 item 15): segment scaled, read back
+        if opt.min_step is not None:
+            opt = replace(opt, min_step=math.ldexp(opt.min_step, -scale.u))
+        return [scale.back(e) for e in segment(scale.record(record), opt)]
+    t, u = record.t, record.u
     thr, sigma_u = input_threshold(u, record.initial_input, opt)
     level = (record.initial_input if record.initial_input is not None
              else _starting_level(u, thr))
-    raws: list[_Raw] = []
-    k = 0
-    while k < n:
-        if abs(u[k] - level) <= thr:
-            k += 1
-            continue
-        back = _first_stable(u, k + 1, level, thr, opt.stable_samples)
-        if back is not None:
-            nxt = _next_departure(u, back, level, thr)
-            t_next = t[nxt] if nxt < n else t[-1] + (t[-1] - t[-2])
-            if t[back] - t[k] < opt.pulse_fraction * (t_next - t[k]):
-                if back - k <= 2 and np.max(np.abs(u[k:back] - level)) < 2 * thr:
-                    k = back  # a one- or two-sample blip barely over the bar: noise
-                    continue
-                raws.append(_Raw("impulse", _walk_back(u, k, level, sigma_u), back, level))
-                k = back
-                continue
-        j = _plateau_start(u, k, thr, opt.stable_samples, sigma_u)
-        raws.append(_Raw("step", _walk_back(u, k, level, sigma_u), j, level))
-        level = float(np.median(u[j : j + opt.stable_samples]))
-        k = j
-    return _events(record, raws, opt, thr)
+    raws = scan(t, u, level, thr, sigma_u, stable=opt.stable_samples,
+                pulse_fraction=opt.pulse_fraction)
+    while True:  # no event without an input change (issue 13 item 14)
+        events = _events(record, raws, opt, thr)
+        flat = [i for i, e in enumerate(events) if _no_change(e, raws[i], t, thr)]
+        if not flat:
+            return events
+        i = flat[0]
+        pulse = as_pulse(u, raws[i], thr, opt.stable_samples) if raws[i].kind == "step" else None
+        raws = raws[:i] + ([pulse] if pulse else []) + raws[i + 1 :]
+
+
+def _no_change(e: Event, r: Raw, t: np.ndarray, thr: float) -> bool:
+    """A step whose refined levels differ by no more than half the threshold (the scan's
+    raw levels differ by more than all of it), or a pulse whose
+    area is under half the threshold's over one of its sample intervals (a doublet):
+    no input change a method could divide by. Such a step is the pulse it was when the
+    input came back (:func:`pipeline.edges.as_pulse`); else, and such a pulse, it joins the
+    window before it."""
+    if e.kind == "step":
+        return abs(e.u_ss - e.u0) <= 0.5 * thr
+    return abs(e.area) < 0.5 * thr * float(t[r.j] - t[r.k]) / max(1, r.j - r.k)
 
 
 def _starting_level(u: np.ndarray, thr: float, m: int = 5) -> float:
     """Median of the first samples before the input first moves by more than ``thr``
     (a step at the second sample must not become the starting level)."""
-    moved = np.flatnonzero(np.abs(u - u[0]) > thr)
-    first = int(moved[0]) if moved.size else u.size
+    first = departure(u, 0, float(u[0]), thr)
     return float(np.median(u[: max(1, min(m, first))]))
 
 
-def _first_stable(u, start, level, thr, m) -> int | None:
-    """First index >= start from which ``m`` samples (or the rest) sit within thr of level."""
-    near = np.abs(u[start:] - level) <= thr
-    idx = np.flatnonzero(near)
-    for i in idx:
-        run = near[i : i + m]
-        if run.all():
-            return start + int(i)
-    return None
-
-
-def _next_departure(u, start, level, thr) -> int:
-    off = np.flatnonzero(np.abs(u[start:] - level) > thr)
-    return start + int(off[0]) if off.size else u.size
-
-
-def _plateau_start(u, k, thr, m, sigma_u: float = 0.0, m_flat: int = 10) -> int:
-    """First index j >= k where the input has stopped moving: the next ``m`` samples agree
-    within thr/2, and the means of the two halves of the next ``2 m_flat`` samples differ
-    by no more than their noise (3 sigma) or thr/20: a slow ramp changes a little per
-    sample, even under noise, but keeps moving."""
-    n = u.size
-    flat = max(3.0 * sigma_u * np.sqrt(2.0 / m_flat), thr / 20)
-    for j in range(k, n):
-        w = u[j : j + m]
-        if not np.all(np.abs(w - np.median(w)) <= thr / 2):
-            continue
-        v = u[j : j + 2 * m_flat]
-        half = v.size // 2
-        if half < m or abs(float(np.mean(v[:half]) - np.mean(v[half:]))) <= flat:
-            return j
-    return k
-
-
-def _walk_back(u, k, level, sigma_u) -> int:
-    """Move a departure back to where a slow ramp really began (noise-aware)."""
-    tol = max(3 * sigma_u, 1e-9 * max(1.0, abs(level)))
-    while k > 0 and abs(u[k - 1] - level) > tol and abs(u[k - 1] - level) < abs(u[k] - level):
-        k -= 1
-    return k
-
-
-def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -> list[Event]:
+def _events(record: Record, raws: list[Raw], opt: SegmentOptions, thr: float) -> list[Event]:
     t, u, y = record.t, record.u, record.y
     n = u.size
     events: list[Event] = []
     prev_ramp = (0.0, 0.0)
+    last_step: float | None = None  # the refined level of the last step's plateau
     for idx, r in enumerate(raws):
         end = raws[idx + 1].k if idx + 1 < len(raws) else n
         prev = raws[idx - 1].k if idx > 0 else 0
@@ -213,12 +178,12 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             plateau = u[r.j : end]
             if plateau.size:
                 plateau = plateau[np.abs(plateau - np.median(plateau)) <= thr]
-            u_ss = float(trim_mean(plateau, 0.1)) if plateau.size else float(u[r.j])
-            u0 = r.level_before if idx == 0 else _level_before(events, r)
+            u_ss = _trim_mean(plateau, 0.1) if plateau.size else float(u[r.j])
+            u0 = r.level_before if last_step is None else last_step
             area, dur = 0.0, 0.0
             settled = _step_settled(t[r.k : end], y[r.k : end], y0, y_ss, noise_avg, opt)
         else:
-            u0 = u_ss = r.level_before if idx == 0 else _level_before(events, r)
+            u0 = u_ss = r.level_before if last_step is None else last_step
             dt = np.diff(t[r.k : r.j + 1])
             area = float(np.sum((u[r.k : r.j] - u0) * dt))
             dur = float(t[r.j] - t[r.k])
@@ -247,7 +212,17 @@ def _events(record: Record, raws: list[_Raw], opt: SegmentOptions, thr: float) -
             response=response, slope=w.slope if w is not None else 0.0, drift=drift,
             tail=_tail(events[-1]) if events else 0.0,
         ))
+        if r.kind == "step":
+            last_step = float(u_ss)
     return events
+
+
+def _trim_mean(a: np.ndarray, cut: float) -> float:
+    """``scipy.stats.trim_mean(a, cut)`` of a 1-D array, computed as it does (the same
+    partition and mean, hence the same bits) without its per-call overhead (4 ms, most of
+    an event's cost on a short window)."""
+    lo = int(cut * a.size)
+    return float(np.mean(np.partition(a, (lo, a.size - lo - 1))[lo : a.size - lo]))
 
 
 def _tail(prev: Event) -> float:
@@ -349,14 +324,6 @@ def _head(y: np.ndarray, sigma: float) -> np.ndarray:
     keep = np.abs(y - y[0]) <= 3 * sigma + 1e-12 * max(1.0, abs(y[0]))
     n = int(np.argmin(keep)) if not keep.all() else y.size
     return y[: max(1, n)]
-
-
-def _level_before(events: list[Event], r: _Raw) -> float:
-    """The refined level of the previous step's plateau (its trimmed mean)."""
-    for ev in reversed(events):
-        if ev.kind == "step":
-            return ev.u_ss
-    return r.level_before
 
 
 def _step_settled(t, y, y0, y_ss, noise, opt: SegmentOptions) -> bool:
