@@ -164,6 +164,8 @@ def memory(model: ProcessModel, dt: float) -> int | None:
         return None
     p = {k: float(v) for k, v in model.params.items()}
     if model.structure == "n_lags":
+        if not (p["T"] > 0 and p["n"] > 0):
+            return None
         horizon = p["T"] * float(gammainccinv(p["n"], MEMORY_TOL))
     else:
         den = _denominator(model)
