@@ -222,9 +222,26 @@ def step_groups(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def transitions(A: np.ndarray, B: np.ndarray, steps: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Exact ZOH ``(Phi, Gamma)`` for each of the intervals ``steps`` (one batched matrix
-    exponential of ``[[A, B], [0, 0]] h``, the construction of ``cont2discrete``)."""
+    """Exact ZOH ``(Phi, Gamma)`` for each of the intervals ``steps``: with distinct
+    eigenvalues ``A = V diag(l) V^-1`` in closed form, ``Phi = V diag(e^{l h}) V^-1``,
+    ``Gamma = V diag(expm1(l h)/l) V^-1 B`` (``h`` for ``l = 0``), vectorised over the
+    intervals; otherwise (repeated poles: an equal-lag chain, critical damping) one batched
+    matrix exponential of ``[[A, B], [0, 0]] h``, the construction of ``cont2discrete``
+    (measured: 3 ms per interval on the shared machine, which made a refinement on an
+    irregular grid spend 90 % of its time there)."""
     n, m = A.shape[0], B.shape[1]
+    lam, V = np.linalg.eig(A)
+    scale = max(float(np.max(np.abs(lam))), 1e-300)
+    gaps = np.abs(lam[:, None] - lam[None, :]) + np.eye(n) * scale
+    if n == 1 or (float(np.min(gaps)) > 1e-4 * scale and np.linalg.cond(V) < 1e6):
+        Vinv = np.linalg.inv(V)
+        lh = lam[None, :] * steps[:, None]
+        E = np.exp(lh)
+        safe = np.where(lam == 0, 1.0, lam)
+        F = np.where(lam[None, :] == 0, steps[:, None] + 0j, np.expm1(lh) / safe[None, :])
+        Phi = np.einsum("ij,kj,jl->kil", V, E, Vinv).real
+        Gam = np.einsum("ij,kj,jl->kil", V, F, Vinv @ B.astype(complex)).real
+        return Phi, Gam
     M = np.zeros((n + m, n + m))
     M[:n, :n], M[:n, n:] = A, B
     E = linalg.expm(M[None, :, :] * steps[:, None, None])
