@@ -20,7 +20,8 @@ in a record can start that far before (:mod:`pipeline.validate`).
 
 :func:`state_space` and :func:`transitions` serve irregular time grids: the exact ZOH
 transition of each distinct interval (intervals grouped within :data:`STEP_REL_TOL`), all
-distinct intervals discretised in one batched matrix exponential.
+distinct intervals at once: in closed form from the eigen-decomposition of the state
+matrix when its poles are distinct, else one batched matrix exponential.
 """
 
 from __future__ import annotations
