@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from .discretise import memory
 from .events import Event, EventData
 from .fit import Fit, Flag
 from .joint import event_fit
@@ -173,21 +174,25 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
     starts = [e.i_start for e in events] + [t.size]
     ref = record.initial_input if record.initial_input is not None and starts[0] == 0 \
         else float(u[max(starts[0] - 1, 0)])
-    cols, delta = [], []
+    dt = record.sample_time
+    mem = memory(unit, dt) if dt is not None else None
+    cols = []
     for j in range(len(events)):
         a, b = starts[j], starts[j + 1]
         before = ref if j == 0 else float(u[a - 1])
-        d = np.zeros(t.size)
-        d[a:b] = u[a:b] - before
-        d[b:] = d[b - 1] if b > a else 0.0
-        cols.append(simulate(unit, t, d, 0.0, 0.0))
-        delta.append(float(d[-1]))
-    X = np.column_stack([np.ones(t.size), *cols])
-    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    e = y - X @ coef
+        # the column is 0 before its event, settled on the held increment from `memory`
+        # samples after its window on: only [a, stop) is simulated
+        stop = t.size if mem is None else min(t.size, b + mem)
+        d = np.empty(stop - a)
+        d[: b - a] = u[a:b] - before
+        d[b - a:] = d[b - a - 1] if b > a else 0.0
+        cols.append(_Column(a, stop, simulate(unit, t[a:stop], d, 0.0, 0.0, dt=dt)
+                            if stop > a else np.empty(0), float(d[-1]) if d.size else 0.0))
+    delta = [c.delta for c in cols]
+    jac, coef, e = _structured_lstsq(cols, y)
     f = variance_factor(e)
-    cov = covariance(X, e, X.shape[1], f)
-    q = t_quantile(max(t.size / f - X.shape[1], MIN_DOF))
+    cov = covariance(jac, e, jac.shape[1], f)
+    q = t_quantile(max(t.size / f - jac.shape[1], MIN_DOF))
     out, level = {}, float(coef[0])
     for j, ev in enumerate(events):
         K, se = float(coef[j + 1]), float(math.sqrt(max(cov[j + 1, j + 1], 0.0)))
@@ -196,6 +201,65 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
             out[ev.index] = (K, se, (K - q * se, K + q * se), level, after)
         level = after
     return out
+
+
+@dataclass(frozen=True)
+class _Column:
+    """A regressor of :func:`step_gains`: 0 before ``start``, ``values`` on
+    ``[start, stop)``, ``delta`` from ``stop`` to the end of the record."""
+
+    start: int
+    stop: int
+    values: np.ndarray
+    delta: float
+
+
+def _structured_lstsq(cols: list[_Column], y: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least squares of ``y`` on ``[1, cols...]`` without the dense ``n x (events + 1)``
+    matrix: ``(R, coefficients, residuals)`` with ``R^T R = X^T X``.
+
+    Between consecutive column boundaries a row of X is a constant vector plus the few
+    columns still moving there, ``X_seg = Z_seg P_seg`` with ``Z_seg = [1, moving]``. A
+    QR of each ``Z_seg = Q R_z`` turns the problem into the small stacked one
+    ``[R_z P_seg] c = [Q^T y_seg]``, which has the same solution, singular values and
+    ``R^T R`` (an orthogonal change of rows: Golub & Van Loan, Matrix Computations, 4th
+    ed., sec. 5.3). Cost O(samples x moving columns + events^3) and memory O(samples),
+    where the dense solve was O(samples x events^2) time and samples x events memory
+    (1.6 GB at 1 M samples and 200 events)."""
+    n, p = y.size, len(cols) + 1
+    cuts = sorted({0, n, *(c.start for c in cols), *(c.stop for c in cols)})
+    blocks, rhs, segs = [], [], []
+    for s0, s1 in zip(cuts[:-1], cuts[1:], strict=True):
+        if s1 <= s0:
+            continue
+        const = np.zeros(p)
+        const[0] = 1.0
+        moving = []
+        for j, c in enumerate(cols):
+            if c.stop <= s0:
+                const[j + 1] = c.delta
+            elif c.start <= s0 and s1 <= c.stop:
+                moving.append(j)
+        Z = np.empty((s1 - s0, 1 + len(moving)))
+        Z[:, 0] = 1.0
+        for k, j in enumerate(moving):
+            c = cols[j]
+            Z[:, k + 1] = c.values[s0 - c.start: s1 - c.start]
+        Q, R = np.linalg.qr(Z)
+        P = np.zeros((1 + len(moving), p))
+        P[0] = const
+        for k, j in enumerate(moving):
+            P[k + 1, j + 1] = 1.0
+        blocks.append(R @ P)
+        rhs.append(Q.T @ y[s0:s1])
+        segs.append((s0, s1, Z, P))
+    M, r = np.vstack(blocks), np.concatenate(rhs)
+    coef, *_ = np.linalg.lstsq(M, r, rcond=None)
+    e = np.empty(n)
+    for s0, s1, Z, P in segs:
+        e[s0:s1] = y[s0:s1] - Z @ (P @ coef)
+    return M, coef, e
 
 
 def gain_flags(estimates: list[EventEstimate], unit: str = "") -> list[Flag]:

@@ -32,7 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .basis import model_response as simulate
+from .basis import forced_response
+from .discretise import memory
 from .events import Event
 from .metrics import fit_percent, ise, mse
 from .models import ProcessModel
@@ -40,12 +41,24 @@ from .record import Record
 from .uncertainty import variance_factor
 
 
+def simulate(model: ProcessModel, record: Record, sl: slice, u0: float, y0: float
+             ) -> np.ndarray:
+    """The model from rest at ``(u0, y0)`` over the samples ``sl`` of the record
+    (:func:`pipeline.basis.model_response`, with the record's sample time instead of a
+    check of the grid on every call)."""
+    t, u = record.t[sl], record.u[sl]
+    if t.size < 2:
+        return np.full(t.size, float(y0))
+    return float(y0) + model.K * forced_response(model.structure, dict(model.params), t,
+                                                 u - float(u0), record.sample_time)
+
+
 def event_simulation(model: ProcessModel, record: Record, ev: Event) -> np.ndarray:
     """Model output over the event window, started at rest at the event's (u0, y0); an
     integrating model's on the baseline's line (``y0 + drift (t - t0)``: the ramp before
     the step goes on, as the integrating methods read the response against it)."""
     sl = slice(ev.i_start, ev.i_end)
-    sim = simulate(model, record.t[sl], record.u[sl], ev.u0, ev.y0)
+    sim = simulate(model, record, sl, ev.u0, ev.y0)
     return sim + ev.drift * (record.t[sl] - ev.t0) if model.integrating else sim
 
 
@@ -80,16 +93,30 @@ def validation_runs(events: list[Event], validation: list[int]) -> list[tuple[in
 
 
 def continuous_simulation(model: ProcessModel, record: Record, events: list[Event],
-                          stop: int | None = None, balance: float | None = None
-                          ) -> np.ndarray:
+                          stop: int | None = None, balance: float | None = None,
+                          needed: int = 0) -> np.ndarray:
     """The model driven by the measured input from the first sample of the record (to
     ``stop``), at rest at the operating point of the first event (an integrating model on
-    the steady ramp of its balance point, :func:`ramp_before`)."""
-    sl = slice(0, record.n_samples if stop is None else stop)
-    first, t = events[0], record.t[sl]
-    sim = simulate(model, t, record.u[sl], first.u0, first.y0)
+    the steady ramp of its balance point, :func:`ramp_before`).
+
+    ``needed``: the first sample the caller reads. A self-regulating model forgets its
+    input after :func:`pipeline.discretise.memory` samples (its pulse response is below
+    1e-17 of its gain), so it is simulated from that many samples before ``needed``
+    only, from rest at the same operating point: the samples from ``needed`` on are the
+    same to rounding, and a validation run late in a long record costs its own length,
+    not the record's (the entries before ``needed`` are then not computed: NaN)."""
+    stop = record.n_samples if stop is None else stop
+    first = events[0]
     slope = ramp_before(model, first, balance)
-    return sim + slope * (t - first.t0) if slope else sim
+    start = 0
+    if needed > 0 and not slope and record.sample_time is not None:
+        mem = memory(model, record.sample_time)
+        if mem is not None:
+            start = max(0, min(needed, stop) - mem)
+    sim = simulate(model, record, slice(start, stop), first.u0, first.y0)
+    if start:
+        sim = np.concatenate([np.full(start, np.nan), sim])
+    return sim + slope * (record.t[:stop] - first.t0) if slope else sim
 
 
 def warmup_correction(model: ProcessModel, t: np.ndarray, error: np.ndarray,
@@ -135,10 +162,12 @@ def validation_simulation(model: ProcessModel, record: Record, events: list[Even
     runs = validation_runs(events, validation)
     if not runs:
         return []
-    sim = continuous_simulation(model, record, events, max(b for _, b, _ in runs), balance)
+    warmups = [warmup(events, first) for _, _, first in runs]
+    needed = min(min(w.start for w in warmups), min(a for a, _, _ in runs))
+    sim = continuous_simulation(model, record, events, max(b for _, b, _ in runs), balance,
+                                needed=needed)
     out = []
-    for a, b, first in runs:
-        w = warmup(events, first)
+    for (a, b, _), w in zip(runs, warmups, strict=True):
         corr = warmup_correction(model, record.t[w], record.y[w] - sim[w], record.t[a:b])
         out.append((slice(a, b), sim[a:b] + corr))
     return out
@@ -187,7 +216,7 @@ def identification_residuals(fit, record: Record, ev: Event) -> tuple[float, int
         return float(d["mse_fit"]) * int(d["n_fit"]), int(d["n_fit"]), float(
             d.get("variance_factor", 1.0))
     sl = slice(fit_start(ev.i_base, ev.i_start, ev.i_end), ev.i_end)
-    e = record.y[sl] - simulate(fit.model, record.t[sl], record.u[sl], ev.u0, ev.y0)
+    e = record.y[sl] - simulate(fit.model, record, sl, ev.u0, ev.y0)
     return float(e @ e), int(e.size), variance_factor(e)
 
 

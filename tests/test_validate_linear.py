@@ -1,0 +1,123 @@
+"""Validation and per-event consistency in O(samples) per model (issue 14 item 4): a late
+held-out event is simulated from the model's memory before it, not from the record start,
+and the per-event gains are solved without the dense samples x events matrix, with the
+same results."""
+
+import numpy as np
+import pytest
+
+from pipeline import consistency, validate
+from pipeline.discretise import memory
+from pipeline.models import ProcessModel
+from pipeline.segmentation import SegmentOptions, segment
+from pipeline.simulation import simulate
+from pipeline.synth import step_record
+from pipeline.uncertainty import covariance, variance_factor
+
+TRUTH = ProcessModel("first_order", {"K": 2.0, "T": 5.0, "delay": 0.5})
+
+
+def _log(n_events: int = 24, per: int = 3000, dt: float = 0.01):
+    rng = np.random.default_rng(0)
+    levels = 2 + rng.uniform(-1, 1, n_events)
+    changes = [((i + 0.5) * per * dt, float(levels[i])) for i in range(n_events)]
+    rec = step_record(TRUTH, u0=2.0, changes=changes, t_end=(n_events * per - 1) * dt,
+                      dt=dt, y0=1.0, noise=0.02, seed=1)
+    return rec, segment(rec, SegmentOptions())
+
+
+MODELS = [
+    ProcessModel("first_order", {"K": 2.01, "T": 5.05, "delay": 0.5}),
+    ProcessModel("two_lags", {"K": 2.0, "T1": 4.6, "T2": 0.5, "delay": 0.43}),
+    ProcessModel("second_order", {"K": 2.0, "zeta": 0.6, "wn": 0.4, "delay": 0.45}),
+    ProcessModel("lead_lag", {"K": 2.0, "Tz": 0.5, "T": 5.0, "delay": 0.5}),
+]
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: m.structure)
+def test_late_event_scored_from_its_memory_equals_the_whole_record(model, monkeypatch):
+    rec, events = _log()
+    j = len(events) - 2
+    lengths = []
+    real = validate.forced_response
+
+    def counting(structure, p, t, du, dt=None):
+        lengths.append(t.size)
+        return real(structure, p, t, du, dt)
+
+    monkeypatch.setattr(validate, "forced_response", counting)
+    idx, e = validate.heldout_residuals(model, rec, events, [j])
+    # the reference: the model driven from the first sample of the record, at rest at the
+    # first event's operating point, the offset estimated on the same warm-up
+    first = events[0]
+    full = simulate(model, rec.t, rec.u, first.u0, first.y0)
+    w = validate.warmup(events, events[j])
+    a, b = events[j].i_start, events[j].i_end
+    ref = rec.y[a:b] - (full[a:b] + np.mean(rec.y[w] - full[w]))
+    assert np.array_equal(idx, np.arange(a, b))
+    assert np.max(np.abs(e - ref)) < 1e-9 * np.max(np.abs(rec.y[a:b] - first.y0))
+    # simulated over its memory, the warm-up and the event, not the 70,000 samples before
+    mem = memory(model, rec.sample_time)
+    assert lengths == [b - w.start + mem] or lengths == [b]  # b: memory covers the start
+    assert lengths[0] < rec.n_samples / 2
+
+
+def test_integrating_model_still_simulated_from_the_start(monkeypatch):
+    rec, events = _log(n_events=8)
+    lengths = []
+    real = validate.forced_response
+
+    def counting(s, p, t, du, dt=None):
+        lengths.append(t.size)
+        return real(s, p, t, du, dt)
+
+    monkeypatch.setattr(validate, "forced_response", counting)
+    m = ProcessModel("integrator_lag", {"K": 0.4, "T": 5.0, "delay": 0.5})
+    validate.heldout_residuals(m, rec, events, [6])
+    assert lengths == [events[6].i_end]
+
+
+def _dense_step_gains(rec, events, shape):
+    """step_gains as it was: every column simulated over the whole record, X dense."""
+    t, u, y = rec.t, rec.u, rec.y
+    unit = ProcessModel(shape.structure, {**shape.params, "K": 1.0})
+    starts = [e.i_start for e in events] + [t.size]
+    ref = float(u[max(starts[0] - 1, 0)])
+    cols = []
+    for j in range(len(events)):
+        a, b = starts[j], starts[j + 1]
+        before = ref if j == 0 else float(u[a - 1])
+        d = np.zeros(t.size)
+        d[a:b] = u[a:b] - before
+        d[b:] = d[b - 1] if b > a else 0.0
+        cols.append(simulate(unit, t, d, 0.0, 0.0))
+    X = np.column_stack([np.ones(t.size), *cols])
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    e = y - X @ coef
+    cov = covariance(X, e, X.shape[1], variance_factor(e))
+    return coef, np.sqrt(np.diag(cov)), e
+
+
+@pytest.mark.parametrize("model", MODELS[:3], ids=lambda m: m.structure)
+def test_step_gains_without_the_dense_matrix(model, monkeypatch):
+    rec, events = _log(n_events=16, per=2000)
+    coef, se, e = _dense_step_gains(rec, events, model)
+    shapes = []
+    real = consistency._structured_lstsq
+
+    def spy(cols, y):
+        out = real(cols, y)
+        shapes.append(out[0].shape)
+        return out
+
+    monkeypatch.setattr(consistency, "_structured_lstsq", spy)
+    got = consistency.step_gains(rec, events, model)
+    assert set(got) == {ev.index for ev in events}
+    for ev in events:
+        K, K_se, _, _, _ = got[ev.index]
+        assert K == pytest.approx(coef[ev.index + 1], rel=1e-9)
+        assert K_se == pytest.approx(se[ev.index + 1], rel=1e-8)
+    # the least squares ran on a few rows per event (the columns still moving in each
+    # segment: the model's memory spans about 11 windows here), not on the 32,000 samples
+    rows, cols = shapes[0]
+    assert cols == len(events) + 1 and rows < rec.n_samples / 100
