@@ -25,7 +25,7 @@ from ..errors import UserError
 from ..record import Record, make_record
 from .base import DataSection, Places, Strict
 from .quirks import QuirkOptions, Rows, check_order, fill_gaps, merge_duplicates, unwrap_output
-from .timebase import TimeOptions, check_grid, display_unit, time_base
+from .timebase import TimeOptions, display_unit, time_base
 
 _UNIT = re.compile(r"(.*?)\s*(?:\(([^()]*)\)|\[([^\[\]]*)\])")
 
@@ -181,7 +181,6 @@ def table_to_record(table: Table, data: DataSection, options: TableOptions,
     rows, unwrapped = unwrap_output(rows, options, y_name)
     if rows.t is not checked.t:
         dt = None  # rows were merged or dropped: the intervals are computed again
-    check_grid(rows.t, t_name, table.places, rows.row, dt)
     units, from_header = _units(given, unit, unit_from, {"input": u_unit, "output": y_unit})
     notes = [*table.notes, *base.notes, *merged, *filled, *unwrapped, *from_header]
     return make_record(rows.t, rows.u, rows.y, name=name, source=where, units=units,

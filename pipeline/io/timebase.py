@@ -14,10 +14,9 @@
   e.g. Unix time 1.7e9 s at 10 Hz) are made relative to the first, with a note; float64
   holds such a stamp only to about 2e-7 s, so a grid that is regular but for that
   rounding (:func:`regular_despite_rounding`) is put back on its exact steps.
-- **A grid that is no sampling** (:func:`check_grid`): irregular intervals whose uniform
-  grid at the median interval would need more than ``MAX_GRID_GROWTH`` times the rows (a
-  crafted 1 ms / 0.9 s grid) are refused with one line: simulating on such a grid costs
-  minutes; the log is to be resampled first.
+- **An irregular grid** (a historian that stores on change, a crafted 1 ms / 0.9 s grid)
+  is kept as it is: it is simulated with one exact zero-order-hold step per distinct
+  interval (:mod:`pipeline.discretise`), at a cost linear in the samples.
 
 The record's ``units["time"]`` is the unit the user reads times in (``time_unit``); the
 record itself is always in seconds.
@@ -26,7 +25,6 @@ record itself is always in seconds.
 from __future__ import annotations
 
 import zoneinfo
-from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Annotated, Literal
@@ -36,7 +34,7 @@ import polars as pl
 from pydantic import AfterValidator, BeforeValidator, Field, field_validator
 
 from ..errors import UserError
-from ..record import MAX_GAP_FACTOR, TIME_UNITS, time_unit, to_seconds
+from ..record import TIME_UNITS, time_unit, to_seconds
 from .base import Places, Strict
 
 
@@ -188,31 +186,6 @@ def regular_despite_rounding(t: np.ndarray) -> float | None:
     return None
 
 
-#: A grid whose uniform version at its median interval holds more than this many times
-#: its rows is refused (:func:`check_grid`).
-MAX_GRID_GROWTH = 10
-
-
-def check_grid(t: np.ndarray, name: str, at: Places, row: Callable[[int], int],
-               dt: np.ndarray | None = None) -> None:
-    """Refuse intervals that spread so that a simulation grid (the median interval, see
-    :func:`pipeline.simulation.simulate`) would be ``MAX_GRID_GROWTH`` times the rows;
-    ``row(k)`` is the table row of sample ``k``, ``dt`` the intervals when known."""
-    if t.size < 3:
-        return
-    dt = np.diff(t) if dt is None else dt
-    if (float(t[-1]) - float(t[0])) <= MAX_GRID_GROWTH * t.size * float(dt.min()):
-        return  # even the shortest interval keeps the grid small (a regular log: no median)
-    k = int(np.argmax(dt))
-    longest = float(dt[k])
-    med = float(np.median(dt))
-    if not med > 0 or longest > MAX_GAP_FACTOR * med or (
-            (float(t[-1]) - float(t[0])) / med <= MAX_GRID_GROWTH * t.size):
-        return  # a broken log's one jump is make_record's error ("time jumps by")
-    raise at.error(row(k + 1), f"time column {name!r}: intervals from {med:.3g} s (the median) "
-                   f"to {longest:.3g} s; on one grid of the median interval the log's "
-                   f"{t.size} rows would be {(t[-1] - t[0]) / med:.3g} samples; expected a "
-                   "sampled log with a steady interval: resample it onto a uniform grid")
 
 
 def _no_empty(empty: pl.Series, name: str, at: Places) -> None:

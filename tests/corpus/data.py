@@ -1,8 +1,8 @@
 """Corpus rows for data pathologies and file names (issue 13 items 1, 15, 16; issue 14).
 
 A file name with glob characters is that file; values that overflow squared errors, an
-infinite value, time that goes back or repeats, an empty or text column, a bimodal time
-grid: one line naming the file; Unix-epoch stamps, a BOM, CRLF line ends and a huge header
+infinite value, time that goes back or repeats, an empty or text column:
+one line naming the file; Unix-epoch stamps, a BOM, CRLF line ends and a huge header
 line are read as the plain logs they are.
 """
 
@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-
-import numpy as np
 
 from tests.corpus import Hostile, config, step_csv
 
@@ -56,11 +54,6 @@ def _epoch_csv() -> str:
                                   for i, (_, u, y) in enumerate(rows))
 
 
-def _bimodal_csv() -> str:
-    t = np.r_[0.0, np.cumsum(np.tile(np.r_[np.full(9, 0.001), 0.9], 300))]
-    return "time,u,y\n" + "".join(f"{v:.4f},{float(v > 100)},0\n" for v in t)
-
-
 def _json_gain(expected: float, sample_time: float | None = None) -> callable:
     def check(folder: Path) -> None:
         doc = json.loads((folder / "res" / "results.json").read_text())
@@ -90,8 +83,6 @@ CASES = [
             files={"log.csv": _with_y(100, "-inf")}, max_lines=0),
     Hostile("data_epoch_stamps_are_regular", (*IDENTIFY, "--out", "res"), 0,
             files={"log.csv": _epoch_csv()}, max_lines=3, check=_json_gain(2.0, 0.1)),
-    Hostile("data_bimodal_time_grid", IDENTIFY, 2, files={"log.csv": _bimodal_csv()},
-            stderr=("log.csv", "intervals from 0.001 s", "resample")),
     Hostile("data_time_goes_back", IDENTIFY, 2,
             files={"log.csv": GOOD.replace("\n10,", "\n9,", 1)},
             stderr=("log.csv: line 22", "not strictly increasing")),
