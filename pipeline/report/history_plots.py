@@ -21,6 +21,7 @@ from matplotlib.figure import Figure
 
 from ..history import PARAMS
 from ..models import PARAMETERS
+from .drawing import literal_text
 
 LABELS = {**{p.name: p.label + (f" ({p.unit()})" if p.kind in ("time", "frequency") else "")
              for p in PARAMETERS.values()}, "mse_validation": "validation MSE"}
@@ -89,6 +90,7 @@ def trend_png(frame: pl.DataFrame, column: str, title: str, *, dpi: int = 100) -
     ax.set_title(title)
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small", loc="best")
+    literal_text(fig)  # record names are text, not mathtext
     buf = BytesIO()
     fig.savefig(buf, format="png")
     return buf.getvalue()

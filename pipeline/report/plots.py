@@ -1,7 +1,10 @@
 """Matplotlib figures for the reports, returned as PNG bytes (Agg backend, no display).
 
 Every axis is labelled with its quantity and unit, every figure with more than one curve
-has a legend, and events are shaded and numbered.
+has a legend, and events are shaded and numbered. Long curves are decimated to the pixels
+they fill, legends sit at fixed places (``loc="best"`` searches every point of every curve:
+70 % of a million-sample report), and user text is drawn literally
+(:mod:`pipeline.report.drawing`).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..record import Record, in_time_unit  # noqa: E402
+from .drawing import columns_of, decimate, literal_text  # noqa: E402
 
 ROLE_COLOURS = {"identification": "#4c72b0", "validation": "#55a868", "unused": "#bbbbbb"}
 DPI = 110
@@ -23,7 +27,9 @@ SUMMARY_DPI = 72
 
 
 def png_of(fig, dpi: int = DPI) -> bytes:
-    """PNG bytes of a figure (pyplot figures are closed after)."""
+    """PNG bytes of a figure, its user text drawn literally (pyplot figures are closed
+    after)."""
+    literal_text(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)
@@ -65,15 +71,17 @@ def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     fig, (ax_y, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(11, 5.2),
                                      gridspec_kw={"height_ratios": [2, 1]})
     t = _tu(record, record.t)
-    ax_y.plot(t, record.y, color="#333333", lw=0.9, label="measured output")
-    ax_u.step(t, record.u, where="post", color="#c44e52", lw=1.0, label="input")
+    px = columns_of(fig, dpi)
+    ax_y.plot(*decimate(t, record.y, px), color="#333333", lw=0.9, label="measured output")
+    ax_u.step(*decimate(t, record.u, px), where="post", color="#c44e52", lw=1.0,
+              label="input")
     for ax in (ax_y, ax_u):
         _shade(ax, record, events, roles, labels=ax is ax_y)
         ax.grid(alpha=0.3)
     ax_y.set_ylabel(_label(record, "output"))
     ax_u.set_ylabel(_label(record, "input"))
     ax_u.set_xlabel(_time_label(record))
-    ax_y.legend(loc="best", fontsize=8)
+    ax_y.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8)
     ax_y.set_title(f"{record.name}: record and events")
     return png_of(fig, dpi)
 
@@ -84,10 +92,12 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
     """Measured output over ``sl`` with model curves; optional read points ``marks``."""
     fig, ax = plt.subplots(figsize=(11, 4.2))
     t = _tu(record, record.t[sl])
-    ax.plot(t, record.y[sl], color="#222222", lw=1.4, alpha=0.8, label="measured")
+    px = columns_of(fig, dpi)
+    ax.plot(*decimate(t, record.y[sl], px), color="#222222", lw=1.4, alpha=0.8,
+            label="measured")
     styles = ["-", "--", "-.", ":"]
     for k, (name, yh) in enumerate(curves):
-        ax.plot(t, yh, lw=1.3, ls=styles[(k // 10) % 4], label=name)
+        ax.plot(*decimate(t, yh, px), lw=1.3, ls=styles[(k // 10) % 4], label=name)
     for tm, ym, text in marks:
         tm = _tu(record, tm)
         ax.plot([tm], [ym], "o", ms=4, color="black")
@@ -100,7 +110,8 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
     ax.set_ylabel(_label(record, "output"))
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8, ncol=2 if len(curves) > 5 else 1)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8,
+              ncol=2 if len(curves) > 12 else 1)
     return png_of(fig, dpi)
 
 
