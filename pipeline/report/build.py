@@ -6,6 +6,7 @@ crash never leaves a half-written report.
 
 from __future__ import annotations
 
+import functools
 import os
 import shutil
 import tempfile
@@ -19,6 +20,7 @@ from ..files import default_mode
 from ..grade import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
+from .markdown import finalize, finalize_html, md_code, md_text
 from .sections import collector, record_section, slug
 from .tables import record_verdict, summary_table
 
@@ -77,13 +79,21 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
         "verdicts": {v: sum(record_verdict(r) == v for r in results)
                      for v in ("ok", "warning", "unreliable", "failed")},
     }
+    md = _environment("md").get_template("report.md.j2").render(**ctx)
+    html = _environment("html").get_template("report.html.j2").render(**ctx)
+    return md, html, files
+
+
+@functools.cache
+def _environment(kind: str) -> Environment:
+    """The template environment of report.md (every output escaped for Markdown,
+    :mod:`pipeline.report.markdown`) or report.html (autoescaped for HTML)."""
     env = Environment(loader=PackageLoader("pipeline", "report/templates"),
                       autoescape=select_autoescape(["html.j2"]), trim_blocks=True,
-                      lstrip_blocks=True)
-    env.filters["mdcell"] = lambda s: str(s).replace("|", "\\|").replace("\n", " ")
-    md = env.get_template("report.md.j2").render(**ctx)
-    html = env.get_template("report.html.j2").render(**ctx)
-    return md, html, files
+                      lstrip_blocks=True, finalize=finalize if kind == "md" else finalize_html)
+    env.filters["mdcell"] = md_text  # escaped text (a table cell's, too)
+    env.filters["mdcode"] = md_code  # a code span
+    return env
 
 
 #: What a run writes into its output folder; nothing else there is touched.
