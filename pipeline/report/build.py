@@ -21,7 +21,7 @@ from ..grade import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
 from .markdown import finalize, finalize_html, md_code, md_text
-from .sections import collector, record_section, slug
+from .sections import FOLD_ROWS, collector, record_section, slug
 from .tables import record_verdict, summary_table
 
 MAX_FULL_RECORDS = 20  # "auto": above this, per-record sections keep one overview plot
@@ -75,7 +75,7 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
     ctx = {
         "title": title, "doc": doc, "records": sections,
         "summary": summary_table(results, anchors), "extras": extras, "history": history,
-        "n_failed": sum(not r.ok for r in results), "flag_legend": FLAGS,
+        "n_failed": sum(not r.ok for r in results), "flag_legend": FLAGS, "fold": FOLD_ROWS,
         "verdicts": {v: sum(record_verdict(r) == v for r in results)
                      for v in ("ok", "warning", "unreliable", "failed")},
     }
