@@ -308,3 +308,9 @@ def test_assert_junit_10_catches_what_the_schema_rejects():
                         'errors="0"/></testsuites>')
     with pytest.raises(AssertionError):
         assert_junit_10(bad)
+
+
+def test_a_user_error_is_one_bounded_line():
+    message = UserError("f.csv: column " + "x" * 1_000_000 + "\nnot found; expected u").message
+    assert len(message) <= UserError.MAX_LENGTH and "\n" not in message
+    assert message.startswith("f.csv: column xxx") and message.endswith("expected u")
