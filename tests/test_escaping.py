@@ -314,3 +314,19 @@ def test_a_user_error_is_one_bounded_line():
     message = UserError("f.csv: column " + "x" * 1_000_000 + "\nnot found; expected u").message
     assert len(message) <= UserError.MAX_LENGTH and "\n" not in message
     assert message.startswith("f.csv: column xxx") and message.endswith("expected u")
+
+
+def test_consistency_figures_draw_units_with_dollars_and_tex():
+    from pipeline.consistency import EventEstimate, StaticMap
+    from pipeline.report.consistency_plots import consistency_figure, static_map_figure
+
+    units = {"time": "s", "input": "$\\frac$", "output": "_^$x$"}
+    est = [EventEstimate(index=k, t0=10.0 * k, u0=float(k), u1=float(k + 1), y0=2.0 * k,
+                         y_inf=2.0 * k + 2, K=2.0 + 0.1 * k, K_ci=(1.9, 2.3), T=5.0,
+                         T_ci=(4.5, 5.5)) for k in range(3)]
+    smap = StaticMap(u=(0.0, 1.0, 2.0), y=(0.0, 2.0, 4.1), line=(0.0, 2.0),
+                     quadratic=(0.0, 2.0, 0.01), rms_line=0.05, rms_quadratic=0.01,
+                     nonlinear=True, p_curvature=0.01)
+    # tight_layout drew the labels as mathtext before: ValueError
+    assert consistency_figure(est, units, dpi=40)[:4] == b"\x89PNG"
+    assert static_map_figure(smap, units, dpi=40)[:4] == b"\x89PNG"

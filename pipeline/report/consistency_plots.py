@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 
 from ..consistency import EventEstimate, StaticMap
 from ..record import in_time_unit
+from .drawing import literal_text
 from .plots import DPI, png_of
 
 #: Number the points of a consistency panel up to this many steps (beyond, the labels
@@ -77,6 +78,7 @@ def consistency_figure(est: list[EventEstimate], units: dict[str, str], *,
             _focus(ax, vals)
     axes[0][0].legend(loc="upper left", fontsize=8, framealpha=0.8)  # fixed: no search
     fig.suptitle("Each step identified on its own (95 % intervals)")
+    literal_text(fig)  # before the layout draws the unit names
     fig.tight_layout()
     return png_of(fig, dpi)
 
@@ -101,5 +103,6 @@ def static_map_figure(m: StaticMap, units: dict[str, str], *, dpi: int = DPI) ->
     ax.set_title("Static map")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", fontsize=8, framealpha=0.8)
+    literal_text(fig)  # before the layout draws the unit names
     fig.tight_layout()
     return png_of(fig, dpi)
