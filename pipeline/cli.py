@@ -19,6 +19,7 @@ from rich.table import Table
 
 from .cli_data import with_data_options
 from .errors import ExitCode, UserError
+from .quoting import printable
 from .version import __version__
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
@@ -40,10 +41,16 @@ def handled(command):
         try:
             return command(*args, **kwargs)
         except UserError as exc:
-            err.print(f"error: {exc.message}", markup=False)
+            error_line(exc.message)
             raise typer.Exit(ExitCode.USER_ERROR) from None
 
     return wrapper
+
+
+def error_line(message: str) -> None:
+    """One ``error: ...`` line on stderr, control characters from file and topic names
+    shown as escapes (a terminal escape sequence in a name reaches the terminal inert)."""
+    err.print(f"error: {printable(message)}", markup=False)
 
 
 def _version(value: bool) -> None:
@@ -90,9 +97,9 @@ def run(
                          scheduler=scheduler, baseline=baseline, junit=junit, history=history,
                          progress=progress, tolerances=tolerances)
     for line in outcome.run.failures:
-        err.print(f"error: {line}", markup=False)
+        error_line(line)
     for line in outcome.messages:
-        out.print(line, markup=False)
+        out.print(printable(line), markup=False)
     code = outcome.exit_code
     if code == ExitCode.SOME_FAILED and allow_failures:
         code = ExitCode.OK
@@ -220,9 +227,10 @@ def _rich(t, columns: list[str] | None = None, title: str = "") -> Table:
         for k in keep:
             c = row[k]
             style = VERDICT_STYLE.get(c.text) if c.kind == "verdict" else None
-            cells.append(f"[{style}]{escape(c.text)}[/]" if style else escape(c.text))
+            text = escape(printable(c.text))
+            cells.append(f"[{style}]{text}[/]" if style else text)
         if verdicts:
-            cells.append(escape(row[verdicts[0]].note).replace(", ", " "))
+            cells.append(escape(printable(row[verdicts[0]].note)).replace(", ", " "))
         tab.add_row(*cells)
     return tab
 
@@ -236,13 +244,13 @@ def _print_ranking(res) -> None:
     if box is not None:
         head = "Recommended model" if box["recommended"] else "Best-ranked model"
         style = VERDICT_STYLE.get(box["verdict"], "bold")
-        out.print(f"{head} for {escape(res.name)}: [{style}]{box['verdict']}[/]")
+        out.print(f"{head} for {escape(printable(res.name))}: [{style}]{box['verdict']}[/]")
         out.print(f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
                   f"validation fit {box['fit']} %, MSE {box['mse']})", markup=False)
         out.print(_rich(box["params"]))
         for f in box["flags"]:
             out.print(f"  [{VERDICT_STYLE[f['severity']]}]{f['code']}[/] "
-                      f"{escape(f['message'])}")
+                      f"{escape(printable(f['message']))}")
         out.print(f"  why: {box['reason']}", markup=False)
     has_val = bool(res.validation_events)
     crit = "MSE (valid.)" if has_val else "ISE (ident.)"
@@ -250,10 +258,10 @@ def _print_ranking(res) -> None:
         ["fit % (valid.)"] if has_val else [])
     for i in res.identification_events:
         out.print(_rich(ranking_table(res, i), columns,
-                        title=f"{res.name}: event {i}, ranked by {crit}"))
+                        title=escape(printable(f"{res.name}: event {i}, ranked by {crit}"))))
         for f in res.fits:
             if f.event == i and not f.ok:
-                out.print(f"  {f.method}: {f.status}: {f.reason}", markup=False)
+                out.print(printable(f"  {f.method}: {f.status}: {f.reason}"), markup=False)
 
 
 @app.command()
@@ -279,7 +287,7 @@ def segment(
                 for e in events]
         sys.stdout.write(json.dumps(docs, indent=1) + "\n")
         return
-    tab = Table(title=f"{record.name}: {len(events)} event(s)")
+    tab = Table(title=escape(printable(f"{record.name}: {len(events)} event(s)")))
     for col in ("#", "kind", "t0", "t_end", "u0", "u_ss / area", "y0", "y_ss", "response",
                 "settled"):
         tab.add_column(col)

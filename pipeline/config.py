@@ -16,6 +16,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from .errors import UserError
 from .files import read_text
 from .io.options import DataConfig, check_section
+from .quoting import quoted
+
+#: At most this many values (after YAML aliases are expanded) in a config: a config holds
+#: tens of keys and a few thousand file names at most; an alias bomb holds billions.
+MAX_VALUES = 100_000
 
 
 class _Strict(BaseModel):
@@ -131,6 +136,13 @@ def load_config(path: str | Path) -> RunConfig:
         where = f"line {mark.line + 1}: " if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise UserError(f"{path}: {where}not valid YAML ({problem})") from None
+    except RecursionError:
+        raise UserError(f"{path}: not valid YAML (nested too deeply); expected a config "
+                        "of keys, lists and values") from None
+    if _expanded_size(raw, MAX_VALUES) > MAX_VALUES:
+        raise UserError(f"{path}: its YAML aliases (*name) expand to more than "
+                        f"{MAX_VALUES:,} values or refer to themselves; expected a config "
+                        "of keys, lists and values")
     if not isinstance(raw, dict):
         raise UserError(f"{path}: expected a mapping of keys (name, data, methods, ...)")
     return config_from_dict(raw, source=str(path), base_dir=str(path.parent))
@@ -156,7 +168,37 @@ def _describe(exc: ValidationError) -> str:
     if kind == "missing":
         return f"missing key '{loc}'"
     msg = err["msg"].removeprefix("Value error, ")
-    return f"key '{loc}': {msg} (got {err.get('input')!r})"
+    return f"key '{loc}': {msg} (got {quoted(err.get('input'))})"
+
+
+def _expanded_size(raw: object, limit: int) -> int:
+    """How many values ``raw`` holds with every YAML alias expanded (``yaml.safe_load``
+    shares one object for all the uses of an anchor, so the walk is memoised on object
+    identity and stops past ``limit``); a structure that contains itself counts as
+    ``limit + 1``. Iterative: no recursion limit on deeply nested input."""
+    sizes: dict[int, int] = {}
+    stack: list[tuple[object, bool]] = [(raw, False)]
+    open_: set[int] = set()
+    while stack:
+        node, done = stack.pop()
+        if not isinstance(node, list | dict):
+            continue
+        key = id(node)
+        children = list(node.values()) if isinstance(node, dict) else node
+        if done:
+            open_.discard(key)
+            sizes[key] = min(limit + 1, 1 + sum(
+                sizes.get(id(c), 1) if isinstance(c, list | dict) else 1 for c in children))
+            continue
+        if key in sizes:
+            continue
+        if key in open_:
+            return limit + 1  # refers to itself
+        open_.add(key)
+        stack.append((node, True))
+        stack.extend((c, False) for c in children if isinstance(c, list | dict)
+                     and id(c) not in sizes)
+    return sizes.get(id(raw), 1)
 
 
 def _clean_loc(loc) -> str:

@@ -6,6 +6,8 @@ file, the line or the config key, and what was expected.
 
 from enum import IntEnum
 
+from .quoting import shorten
+
 
 class ExitCode(IntEnum):
     """The exit-code contract of the ``pipeline`` command (one place for it)."""
@@ -21,9 +23,14 @@ class UserError(Exception):
 
     exit_code = ExitCode.USER_ERROR
 
+    #: A message is cut (its start and end kept) past this many characters: one line,
+    #: whatever a file or a config quotes into it (:func:`pipeline.quoting.quoted` keeps
+    #: the quoted values short in the first place).
+    MAX_LENGTH = 2000
+
     def __init__(self, message: str) -> None:
         super().__init__(message)
-        self.message = " ".join(message.split())  # always one line
+        self.message = shorten(" ".join(message.split()), self.MAX_LENGTH)  # one line
 
 
 class NotApplicable(Exception):

@@ -22,6 +22,7 @@ from pydantic.fields import FieldInfo
 
 from ..datasets import load_registry
 from ..errors import UserError
+from ..quoting import quoted
 from .base import DataSection, Format, SignalConfig, Strict
 from .registry import FORMATS, NAMES, SUFFIXES, find_format, formats_taking
 
@@ -97,7 +98,7 @@ def options_for(data: DataSection, fmt: Format, where: str,
         err = exc.errors()[0]
         key = ".".join(str(p) for p in err["loc"][:1])
         msg = err["msg"].removeprefix("Value error, ")
-        raise UserError(f"{where}: {label(key)}: {msg} (got {err.get('input')!r})") from None
+        raise UserError(f"{where}: {label(key)}: {msg} (got {quoted(err.get('input'))})") from None
 
 
 def section_formats(data: DataSection) -> list[Format] | None:

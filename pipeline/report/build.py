@@ -6,6 +6,7 @@ never leaves a half-written report, the user's files are kept).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,9 +18,10 @@ from ..findings import Comparison
 from ..grade import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
+from .markdown import finalize, finalize_html, md_code, md_text
 from .outdir import publish
 from .regressions import mark_summary, regression_section
-from .sections import collector, record_section, slug
+from .sections import FOLD_ROWS, collector, record_section, slug
 from .tables import record_verdict, summary_table
 
 MAX_FULL_RECORDS = 20  # "auto": above this, per-record sections keep one overview plot
@@ -78,17 +80,25 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
     ctx = {
         "title": title, "doc": doc, "records": sections, "gate": gate,
         "summary": summary, "extras": extras, "history": history,
-        "n_failed": sum(not r.ok for r in results), "flag_legend": FLAGS,
+        "n_failed": sum(not r.ok for r in results), "flag_legend": FLAGS, "fold": FOLD_ROWS,
         "verdicts": {v: sum(record_verdict(r) == v for r in results)
                      for v in ("ok", "warning", "unreliable", "failed")},
     }
+    md = _environment("md").get_template("report.md.j2").render(**ctx)
+    html = _environment("html").get_template("report.html.j2").render(**ctx)
+    return md, html, files
+
+
+@functools.cache
+def _environment(kind: str) -> Environment:
+    """The template environment of report.md (every output escaped for Markdown,
+    :mod:`pipeline.report.markdown`) or report.html (autoescaped for HTML)."""
     env = Environment(loader=PackageLoader("pipeline", "report/templates"),
                       autoescape=select_autoescape(["html.j2"]), trim_blocks=True,
-                      lstrip_blocks=True)
-    env.filters["mdcell"] = lambda s: str(s).replace("|", "\\|").replace("\n", " ")
-    md = env.get_template("report.md.j2").render(**ctx)
-    html = env.get_template("report.html.j2").render(**ctx)
-    return md, html, files
+                      lstrip_blocks=True, finalize=finalize if kind == "md" else finalize_html)
+    env.filters["mdcell"] = md_text  # escaped text (a table cell's, too)
+    env.filters["mdcode"] = md_code  # a code span
+    return env
 
 
 def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,

@@ -10,7 +10,12 @@ from matplotlib.figure import Figure
 
 from ..consistency import EventEstimate, StaticMap
 from ..record import in_time_unit
+from .drawing import literal_text
 from .plots import DPI, png_of
+
+#: Number the points of a consistency panel up to this many steps (beyond, the labels
+#: would cover the points; the table numbers them).
+MAX_NUMBERED = 40
 
 
 def _errorbar(ax, x, v, ci, colour, label=None):
@@ -63,15 +68,17 @@ def consistency_figure(est: list[EventEstimate], units: dict[str, str], *,
                 if sel:
                     _errorbar(ax, [x[i] for i in sel], [vals[i] for i in sel],
                               [cis[i] for i in sel], colour, lab if row == col == 0 else None)
-            for xi, vi, e in zip(x, vals, est, strict=True):
+            numbered = zip(x, vals, est, strict=True) if len(est) <= MAX_NUMBERED else ()
+            for xi, vi, e in numbered:
                 ax.annotate(f"#{e.index}", (xi, vi), xytext=(4, 4), textcoords="offset points",
                             fontsize=7)
             ax.set_xlabel(xlabel)
             ax.set_ylabel(f"{name} [{unit}]" if unit else name)
             ax.grid(alpha=0.3)
             _focus(ax, vals)
-    axes[0][0].legend(fontsize=8)
+    axes[0][0].legend(loc="upper left", fontsize=8, framealpha=0.8)  # fixed: no search
     fig.suptitle("Each step identified on its own (95 % intervals)")
+    literal_text(fig)  # before the layout draws the unit names
     fig.tight_layout()
     return png_of(fig, dpi)
 
@@ -95,6 +102,7 @@ def static_map_figure(m: StaticMap, units: dict[str, str], *, dpi: int = DPI) ->
     ax.set_ylabel("settled output" + (f" [{units['output']}]" if units.get("output") else ""))
     ax.set_title("Static map")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.8)
+    literal_text(fig)  # before the layout draws the unit names
     fig.tight_layout()
     return png_of(fig, dpi)

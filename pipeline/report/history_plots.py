@@ -33,6 +33,7 @@ from matplotlib.figure import Figure
 from ..baseline import param_scale
 from ..history import PARAMS
 from ..models import PARAMETERS
+from .drawing import literal_text
 
 MSE = "mse_validation"
 #: What keeps its meaning when the recommended structure changes (the gate's rule too).
@@ -175,6 +176,7 @@ def trend_png(frame: pl.DataFrame, title: str, column: str, what: str, *, dpi: i
     ax.set_title(title.replace("$", r"\$"))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small", loc="best")
+    literal_text(fig)  # record names are text, not mathtext
     buf = BytesIO()
     fig.savefig(buf, format="png")
     return buf.getvalue()

@@ -14,28 +14,46 @@ Testcases (``classname`` = the record name):
 * a fit that was in the baseline but is missing now gets its own testcase with a failure
   when it counts as a regression.
 
+The document is valid against the JUnit schema of the Jenkins xUnit plugin
+(``junit-10.xsd``, jenkinsci/xunit-plugin, ``src/main/resources/org/jenkinsci/plugins/
+xunit/types/model/xsd/junit-10.xsd``): ``<testsuites>`` takes ``name``, ``time``,
+``tests``, ``failures`` and ``errors`` only (its ``skipped`` count is on the
+``<testsuite>``, with ``time``, ``timestamp`` and ``hostname``), times are plain decimals.
+User text (record names, reasons, messages) is written with its control characters as
+visible escapes (:func:`pipeline.quoting.printable`): XML 1.0 forbids most of them, and a
+file holding one is not well-formed.
+
 Built with :mod:`xml.etree.ElementTree`; :func:`write_junit` is the only file access.
 """
 
 from __future__ import annotations
 
+import math
 import os
+import socket
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from ..baseline import Comparison, Finding
 from ..files import write_atomic
+from ..quoting import printable
 from ..schema import FitDoc, RecordDoc, ResultsDoc
 
 SUITE = "pipeline"
 
 
-def junit_xml(current: ResultsDoc, comparison: Comparison | None = None) -> str:
-    """The JUnit XML document of a results document and its comparison (or none)."""
+def junit_xml(current: ResultsDoc, comparison: Comparison | None = None, *,
+              time: float | None = None, hostname: str | None = None) -> str:
+    """The JUnit XML document of a results document and its comparison (or none).
+
+    ``time``: the run's wall time in seconds (the testcases' sum, 0, when not given);
+    ``hostname``: where it ran (this machine's name when not given).
+    """
     comparison = comparison or Comparison()
     suite = ET.Element("testsuite", {"name": _suite_name(current)})
     if current.created:
         suite.set("timestamp", current.created)
+    suite.set("hostname", socket.gethostname() if hostname is None else hostname)
     _properties(suite, current, comparison)
     seen: set[tuple[str, int | None, str | None]] = set()
     for rec in current.records:
@@ -53,20 +71,38 @@ def junit_xml(current: ResultsDoc, comparison: Comparison | None = None) -> str:
     for key in _unseen_keys(comparison, seen):
         suite.append(_orphan_case(key, comparison.for_fit(*key)))
     _count(suite)
-    root = ET.Element("testsuites", {"name": SUITE})
+    seconds = _seconds(0.0 if time is None else time)
+    suite.set("time", seconds)
+    root = ET.Element("testsuites", {"name": SUITE, "time": seconds})
     root.append(suite)
-    for attr in ("tests", "failures", "errors", "skipped"):
+    for attr in ("tests", "failures", "errors"):  # the schema has no skipped here
         root.set(attr, suite.get(attr, "0"))
+    _printable(root)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
 
 
 def write_junit(path: str | os.PathLike, current: ResultsDoc,
-                comparison: Comparison | None = None) -> Path:
+                comparison: Comparison | None = None, *, time: float | None = None) -> Path:
     """Write :func:`junit_xml` to ``path`` atomically (temporary file, then rename)."""
     p = Path(path)
-    write_atomic(p, junit_xml(current, comparison).encode("utf-8"), "JUnit file")
+    write_atomic(p, junit_xml(current, comparison, time=time).encode("utf-8"), "JUnit file")
     return p
+
+
+def _seconds(t: float) -> str:
+    """A time as the schema's SUREFIRE_TIME takes it: digits and a decimal point."""
+    return f"{t:.3f}" if math.isfinite(t) and t > 0 else "0"
+
+
+def _printable(root: ET.Element) -> None:
+    """Every attribute and text of the tree with control characters made visible (the
+    one place: a testcase, a message or a property added later is covered too)."""
+    for el in root.iter():
+        if el.text:
+            el.text = printable(el.text, lines=True)
+        for key, value in el.attrib.items():
+            el.set(key, printable(value, lines=True))
 
 
 # -- testcases ---------------------------------------------------------------------------

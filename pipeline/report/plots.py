@@ -1,7 +1,10 @@
 """Matplotlib figures for the reports, returned as PNG bytes (Agg backend, no display).
 
 Every axis is labelled with its quantity and unit, every figure with more than one curve
-has a legend, and events are shaded and numbered.
+has a legend, and events are shaded and numbered. Long curves are decimated to the pixels
+they fill, legends sit at fixed places (``loc="best"`` searches every point of every curve:
+70 % of a million-sample report), and user text is drawn literally
+(:mod:`pipeline.report.drawing`).
 """
 
 from __future__ import annotations
@@ -14,16 +17,21 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
 from ..record import Record, in_time_unit  # noqa: E402
+from .drawing import columns_of, decimate, literal_text  # noqa: E402
 
 ROLE_COLOURS = {"identification": "#4c72b0", "validation": "#55a868", "unused": "#bbbbbb"}
 DPI = 110
 SUMMARY_DPI = 72
+MAX_NUMBERED = 40  # events numbered on a plot up to this many (beyond, the table does)
 
 
 def png_of(fig, dpi: int = DPI) -> bytes:
-    """PNG bytes of a figure (pyplot figures are closed after)."""
+    """PNG bytes of a figure, its user text drawn literally (pyplot figures are closed
+    after)."""
+    literal_text(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)
@@ -46,18 +54,31 @@ def _time_label(record: Record) -> str:
 
 
 def _shade(ax, record: Record, events, roles, *, labels: bool) -> None:
-    seen = set()
+    """Each event's window shaded in its role's colour with a dashed line at its start,
+    one collection per role (one artist per event made a 2000-event record's overview
+    quadratic in matplotlib's autoscaling: 114 s); lined and numbered when there are
+    few events."""
+    spans: dict[str, list[tuple[float, float]]] = {}
     for ev in events:
-        role = roles.get(ev.index, "unused")
-        t0, t1 = _tu(record, ev.t0), _tu(record, record.t[ev.i_end - 1])
-        ax.axvspan(t0, t1, color=ROLE_COLOURS[role], alpha=0.12,
-                   label=f"{role} event" if labels and role not in seen else None)
-        seen.add(role)
-        ax.axvline(t0, color=ROLE_COLOURS[role], lw=0.8, ls="--")
-        if labels:
-            ax.annotate(f"#{ev.index} {ev.kind}", (t0, 1.0), xycoords=("data", "axes fraction"),
-                        xytext=(3, -12), textcoords="offset points", fontsize=8,
-                        color=ROLE_COLOURS[role])
+        spans.setdefault(roles.get(ev.index, "unused"), []).append(
+            (_tu(record, ev.t0), _tu(record, record.t[ev.i_end - 1])))
+    across = ax.get_xaxis_transform()  # x in data, y from the bottom (0) to the top (1)
+    for role, windows in spans.items():
+        colour = ROLE_COLOURS[role]
+        ax.add_collection(PolyCollection(
+            [[(a, 0.0), (a, 1.0), (b, 1.0), (b, 0.0)] for a, b in windows], transform=across,
+            facecolors=colour, edgecolors="none", alpha=0.12,
+            label=f"{role} event" if labels else None), autolim=False)
+        if len(events) <= MAX_NUMBERED:  # beyond, dense dashes draw stripes
+            ax.add_collection(LineCollection(
+                [[(a, 0.0), (a, 1.0)] for a, _ in windows], transform=across,
+                colors=colour, linewidths=0.8, linestyles="--"), autolim=False)
+    if labels and len(events) <= MAX_NUMBERED:
+        for ev in events:
+            ax.annotate(f"#{ev.index} {ev.kind}", (_tu(record, ev.t0), 1.0),
+                        xycoords=("data", "axes fraction"), xytext=(3, -12),
+                        textcoords="offset points", fontsize=8,
+                        color=ROLE_COLOURS[roles.get(ev.index, "unused")])
 
 
 def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
@@ -65,15 +86,17 @@ def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     fig, (ax_y, ax_u) = plt.subplots(2, 1, sharex=True, figsize=(11, 5.2),
                                      gridspec_kw={"height_ratios": [2, 1]})
     t = _tu(record, record.t)
-    ax_y.plot(t, record.y, color="#333333", lw=0.9, label="measured output")
-    ax_u.step(t, record.u, where="post", color="#c44e52", lw=1.0, label="input")
+    px = columns_of(fig, dpi)
+    ax_y.plot(*decimate(t, record.y, px), color="#333333", lw=0.9, label="measured output")
+    ax_u.step(*decimate(t, record.u, px), where="post", color="#c44e52", lw=1.0,
+              label="input")
     for ax in (ax_y, ax_u):
         _shade(ax, record, events, roles, labels=ax is ax_y)
         ax.grid(alpha=0.3)
     ax_y.set_ylabel(_label(record, "output"))
     ax_u.set_ylabel(_label(record, "input"))
     ax_u.set_xlabel(_time_label(record))
-    ax_y.legend(loc="best", fontsize=8)
+    ax_y.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8)
     ax_y.set_title(f"{record.name}: record and events")
     return png_of(fig, dpi)
 
@@ -84,10 +107,12 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
     """Measured output over ``sl`` with model curves; optional read points ``marks``."""
     fig, ax = plt.subplots(figsize=(11, 4.2))
     t = _tu(record, record.t[sl])
-    ax.plot(t, record.y[sl], color="#222222", lw=1.4, alpha=0.8, label="measured")
+    px = columns_of(fig, dpi)
+    ax.plot(*decimate(t, record.y[sl], px), color="#222222", lw=1.4, alpha=0.8,
+            label="measured")
     styles = ["-", "--", "-.", ":"]
     for k, (name, yh) in enumerate(curves):
-        ax.plot(t, yh, lw=1.3, ls=styles[(k // 10) % 4], label=name)
+        ax.plot(*decimate(t, yh, px), lw=1.3, ls=styles[(k // 10) % 4], label=name)
     for tm, ym, text in marks:
         tm = _tu(record, tm)
         ax.plot([tm], [ym], "o", ms=4, color="black")
@@ -100,7 +125,8 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
     ax.set_ylabel(_label(record, "output"))
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8, ncol=2 if len(curves) > 5 else 1)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8,
+              ncol=2 if len(curves) > 12 else 1)
     return png_of(fig, dpi)
 
 

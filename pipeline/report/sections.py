@@ -24,6 +24,7 @@ from .tables import (
     consistency_table,
     events_table,
     fmt,
+    ident_summary_table,
     not_ok_rows,
     ranking_table,
     recommended_box,
@@ -31,6 +32,12 @@ from .tables import (
 
 ORDER_TITLES = {"first": "first-order models", "second": "second-order models",
                 "nth": "n-th order models"}
+#: A per-event table longer than this is folded (HTML ``<details>``) or cut to this many
+#: rows with a pointer to results.json (Markdown): a 2000-event record stays readable.
+FOLD_ROWS = 20
+#: Identification events shown in full (ranking, plots); the others get one row each in
+#: a compact table of their best models.
+DETAILED_EVENTS = 5
 #: Plot modes of a report (``report.plots``): everything, one overview per record, none.
 MODES = ("full", "summary", "none")
 
@@ -70,7 +77,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     ctx = {"name": res.name, "anchor": anchor, "ok": res.ok, "error": res.error,
            "source": rec.source if rec else res.source,
            "notes": list(rec.notes) if rec else [], "events": None, "ident": [],
-           "box": None}
+           "box": None, "ident_rest": None, "events_line": ""}
     if rec is None:
         return ctx, files
     tu = rec.units.get("time")
@@ -81,13 +88,33 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
                    "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
     ctx["box"] = recommended_box(res)
     ctx["events"] = events_table(res)
+    ctx["events_line"] = events_line(res)
     if res.events and mode != "none":
         ctx["overview"] = add(f"{anchor}_overview", "Record with events",
                               plots.overview(rec, res.events, res.roles, dpi=dpi))
     ctx["consistency"] = _consistency_context(res, mode, add, anchor, dpi)
-    for i in res.identification_events:
+    ident = res.identification_events
+    for i in ident[:DETAILED_EVENTS]:
         ctx["ident"].append(_ident_context(res, i, mode, add, anchor, dpi))
+    if len(ident) > DETAILED_EVENTS:
+        ctx["ident_rest"] = ident_summary_table(res, ident[DETAILED_EVENTS:])
     return ctx, files
+
+
+def events_line(res: RecordResult) -> str:
+    """``2000 events: 1990 steps, 10 impulses; 1 identification, 1999 validation``."""
+    if not res.events:
+        return ""
+    kinds: dict[str, int] = {}
+    for e in res.events:
+        kinds[e.kind] = kinds.get(e.kind, 0) + 1
+    roles: dict[str, int] = {}
+    for e in res.events:
+        role = res.roles.get(e.index, "unused")
+        roles[role] = roles.get(role, 0) + 1
+    return (f"{len(res.events)} event(s): "
+            + ", ".join(f"{n} {k}{'s' if n > 1 else ''}" for k, n in kinds.items()) + "; "
+            + ", ".join(f"{n} {r}" for r, n in roles.items()))
 
 
 def _consistency_context(res: RecordResult, mode: str, add, anchor: str, dpi: int

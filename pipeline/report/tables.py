@@ -211,6 +211,29 @@ def ranking_table(res: RecordResult, event: int) -> Table:
     return t
 
 
+def ident_summary_table(res: RecordResult, events: list[int]) -> Table:
+    """One row per identification event: its best-ranked model (a long record's compact
+    view of the events beyond the detailed ones)."""
+    t = Table(["event", "kind", "best method", "verdict", "parameters", "MSE (valid.)",
+               "ok fits"])
+    for i in events:
+        ranked = res.ranking(i)
+        kind = res.events[i].kind if i < len(res.events) else "-"
+        if not ranked:
+            t.rows.append([Cell(str(i), "num"), Cell(kind), Cell("-"), Cell("-"),
+                           Cell("no model"), Cell("-"), Cell("0", "num")])
+            continue
+        f = ranked[0]
+        t.rows.append([
+            Cell(str(i), "num"), Cell(kind),
+            Cell(fit_label(f.method, f.event, list(f.events)), "code"),
+            Cell(f.verdict or "-", "verdict"),
+            Cell(params_text(f.model.params, res.record.units if res.record else None,
+                             f.model.structure)),
+            Cell(fmt(f.metrics.get("mse_validation")), "num"), Cell(str(len(ranked)), "num")])
+    return t
+
+
 def recommended_box(res: RecordResult) -> dict | None:
     """What the report's first box shows: the model with units and intervals, its fit, the
     verdict and every flag in plain words, and why it was chosen."""

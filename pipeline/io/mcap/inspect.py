@@ -173,13 +173,22 @@ def _inspect_scan(f: BinaryIO, path: Path, problem: str | None) -> tuple[list[di
 
 
 def format_inspect(info: dict) -> Table:
-    """A rich table of :func:`inspect_mcap`'s result, for ``pipeline inspect``."""
+    """A rich table of :func:`inspect_mcap`'s result, for ``pipeline inspect``; the file's
+    own text (topics, schema and field names) as plain text: no rich markup, control
+    characters shown as escapes (:func:`pipeline.quoting.printable`)."""
     from rich.table import Table
+    from rich.text import Text
+
+    from ...quoting import printable
+
+    def plain(text: str) -> Text:
+        return Text(printable(text, lines=True))
 
     span = (f"{info['duration']:.6g} s from unix time {info['start']:.3f}"
             if info["duration"] is not None else "no messages")
-    table = Table(title=f"{info['path']}: {info['message_count']} messages, {span}",
-                  caption="\n".join(info["notes"]) or None, caption_justify="left")
+    table = Table(title=plain(f"{info['path']}: {info['message_count']} messages, {span}"),
+                  caption=plain("\n".join(info["notes"])) if info["notes"] else None,
+                  caption_justify="left")
     fold = {"overflow": "fold"}
     for col, kw in (("topic", fold), ("type", fold), ("encoding", {}),
                     ("messages", {"justify": "right"}), ("rate (Hz)", {"justify": "right"}),
@@ -189,6 +198,7 @@ def format_inspect(info: dict) -> Table:
         fields = t["fields"]
         shown = "\n".join(fields[:12]) + (f"\n... (+{len(fields) - 12})"
                                            if len(fields) > 12 else "")
-        table.add_row(t["topic"], t["schema"] or "-", t["message_encoding"], str(t["count"]),
-                      f"{t['rate_hz']:.3g}" if t["rate_hz"] else "-", shown or "-")
+        table.add_row(plain(t["topic"]), plain(t["schema"] or "-"),
+                      plain(t["message_encoding"]), str(t["count"]),
+                      f"{t['rate_hz']:.3g}" if t["rate_hz"] else "-", plain(shown or "-"))
     return table
