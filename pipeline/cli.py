@@ -81,16 +81,28 @@ def run(
     mse_tol: Annotated[float, typer.Option(help="validation MSE growth tolerance")] = 0.10,
     tol: Annotated[list[str] | None, typer.Option(
         help="per-parameter tolerance, e.g. --tol T=0.1 (repeatable)")] = None,
+    quiet: Annotated[bool, typer.Option(
+        "--quiet", "-q", help="errors only on stderr (no progress bar)")] = False,
+    verbose: Annotated[bool, typer.Option(
+        "--verbose", "-v", help="each record's stages and time, each report step, on stderr")]
+    = False,
 ) -> None:
-    """Identify and validate every record a config names; write results.json and reports."""
-    from .baseline import Tolerances
-    from .run import run_config
+    """Identify and validate every record a config names; write results.json and reports.
 
-    tolerances = Tolerances(param_tol=param_tol, mse_tol=mse_tol,
-                            param_tols=_tolerances(tol or []))
-    outcome = run_config(config, out_dir=out_dir, workers=workers, executor=executor,
-                         scheduler=scheduler, baseline=baseline, junit=junit, history=history,
-                         progress=progress, tolerances=tolerances)
+    SIGTERM or Ctrl-C stops the run cleanly: the workers end, nothing half-written is
+    left, an earlier report in --out is kept; the exit code is 143 (SIGTERM) or 130.
+    """
+    from .cli_run import run_command
+    from .interrupt import Interrupted, handle_signals
+
+    with handle_signals():
+        try:
+            outcome = run_command(config, out_dir, workers, executor, scheduler, baseline, junit,
+                           history, progress, param_tol, mse_tol, tol, quiet, verbose)
+        except Interrupted as exc:
+            err.print(f"interrupted by {exc.name}: the run stopped, its workers ended; "
+                      "no partial report left (an earlier one is kept)", markup=False)
+            raise typer.Exit(exc.exit_code) from None
     for line in outcome.run.failures:
         err.print(f"error: {line}", markup=False)
     for line in outcome.messages:
@@ -99,23 +111,6 @@ def run(
     if code == ExitCode.SOME_FAILED and allow_failures:
         code = ExitCode.OK
     raise typer.Exit(code)
-
-
-def _tolerances(items: list[str]) -> dict[str, float]:
-    from .models import PARAMETERS
-
-    out_ = {}
-    for item in items:
-        name, _, value = item.partition("=")
-        name = name.strip()
-        try:
-            out_[name] = float(value)
-        except ValueError:
-            raise UserError(f"--tol {item!r}: expected PARAMETER=FRACTION, e.g. T=0.1") from None
-        if name not in PARAMETERS:
-            raise UserError(f"--tol {item!r}: unknown parameter {name!r}; expected one of "
-                            + ", ".join(PARAMETERS))
-    return out_
 
 
 # -- identify / segment ------------------------------------------------------------------

@@ -17,6 +17,7 @@ from jinja2 import Environment, PackageLoader, select_autoescape
 from ..errors import UserError
 from ..files import default_mode
 from ..grade import FLAGS
+from ..interrupt import deferred
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
 from .sections import collector, record_section, slug
@@ -118,10 +119,11 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
             (tmp / "report.md").write_text(md, encoding="utf-8")
         if html:
             (tmp / "report.html").write_text(page, encoding="utf-8")
-        if out_dir.exists():
-            _replace_outputs(tmp, out_dir)
-        else:
-            os.replace(tmp, out_dir)
+        with deferred():  # SIGTERM waits for these renames: never half a report
+            if out_dir.exists():
+                _replace_outputs(tmp, out_dir)
+            else:
+                os.replace(tmp, out_dir)
     except OSError as exc:
         raise UserError(f"{out_dir}: cannot write the report ({exc.strerror or exc})") from None
     finally:
