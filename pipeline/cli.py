@@ -279,14 +279,15 @@ def segment(
 @app.command()
 def methods() -> None:
     """List the identification methods: id, event kind, model structures, reference."""
-    from .methods import REGISTRY
+    from .method_catalogue import catalogue  # metadata only: no scipy to start
 
     tab = Table(title="Methods")
     tab.add_column("id", no_wrap=True)
     for col in ("event", "structures", "title", "reference"):
         tab.add_column(col)
-    for m in REGISTRY.values():
-        tab.add_row(m.id, m.event, ", ".join(m.structures), m.title, m.citation)
+    for m in catalogue():
+        tab.add_row(m["id"], m["event"], ", ".join(m["structures"]), m["title"],
+                    m["citation"])
     out.print(tab)
 
 
