@@ -150,20 +150,22 @@ def _run_inline(specs: list, cfg, job: Job, tracker: Tracker) -> list:
     return out
 
 
-def pool_context() -> multiprocessing.context.BaseContext:
+def pool_context(draws: bool = False) -> multiprocessing.context.BaseContext:
     """``forkserver`` where available (Linux, macOS), else ``spawn``: no fork of a
     threaded parent.
 
-    The fork server imports ``pipeline.run`` once (numpy, scipy, polars ... take seconds)
-    and every worker is forked from it with the modules loaded; the server lives as long
-    as this process, so later pools start at once. It and the resource tracker are started
-    with stdout and stderr on /dev/null (:func:`pipeline.interrupt.output_detached`): a
-    helper must never hold the caller's pipes (``out=$(pipeline run ...)`` would hang).
+    The fork server imports ``pipeline.run`` once (numpy, scipy, polars ... take seconds),
+    and ``pipeline.report.build`` (matplotlib, another second) when the pool will
+    ``draws`` the report's plots; every worker is forked from it with the modules loaded.
+    The server lives as long as this process (its modules are those of its start). It and
+    the resource tracker are started with stdout and stderr on /dev/null
+    (:func:`pipeline.interrupt.output_detached`): a helper must never hold the caller's
+    pipes (``out=$(pipeline run ...)`` would hang).
     """
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["pipeline.run", "pipeline.report.build"])
+    ctx.set_forkserver_preload(["pipeline.run", *(["pipeline.report.build"] if draws else [])])
     from multiprocessing import forkserver
 
     with output_detached():
@@ -172,8 +174,10 @@ def pool_context() -> multiprocessing.context.BaseContext:
 
 
 @contextlib.contextmanager
-def local_pool(workers: int | None, n_items: int) -> Iterator[ProcessPoolExecutor | None]:
-    """A process pool of :func:`resolve_workers` workers, or None when that is one.
+def local_pool(workers: int | None, n_items: int,
+               draws: bool = False) -> Iterator[ProcessPoolExecutor | None]:
+    """A process pool of :func:`resolve_workers` workers, or None when that is one;
+    ``draws``: it will also draw plots (:func:`pool_context`).
 
     Leaving the block normally waits for the pool; leaving it by an exception (an
     :class:`~pipeline.interrupt.Interrupted` included) cancels the queued work and
@@ -183,7 +187,7 @@ def local_pool(workers: int | None, n_items: int) -> Iterator[ProcessPoolExecuto
     if n == 1:
         yield None
         return
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=pool_context(),
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=pool_context(draws),
                                initializer=_worker_init, initargs=(os.getpid(),))
     try:
         yield pool

@@ -146,7 +146,7 @@ class Stages(AbstractContextManager):
 
     def __enter__(self) -> Stages:
         if self.show:
-            self._progress = _bar("report")
+            self._progress = _bar("{task.description}")
             self._progress.start()
         return self
 
@@ -156,7 +156,6 @@ class Stages(AbstractContextManager):
         self._name, self._t0 = name, time.perf_counter()
         if self._progress is not None:
             self._task = self._progress.add_task(name, total=total)
-            self._progress.columns[0].text_format = f"[bold]{name}"
 
     def advance(self, n: int = 1) -> None:
         if self._progress is not None and self._task is not None:

@@ -209,7 +209,8 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     created = created or now_iso()
     check_executor(executor)
     specs = resolve_specs(cfg)
-    pool = stack.enter_context(local_pool(workers if executor == "local" else 1, len(specs)))
+    pool = stack.enter_context(local_pool(workers if executor == "local" else 1, len(specs),
+                                          draws=cfg.report.plots != "none"))
     # the baseline and the history are read, the output files checked, before the batch:
     # a bad one costs no run
     for path, what in ((junit, "JUnit file"), (history, "history")):
