@@ -35,6 +35,7 @@ import contextlib
 import logging
 import multiprocessing
 import os
+import socket
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -261,12 +262,37 @@ def parallel_map(pool: ProcessPoolExecutor | None, n_items: int, min_items: int 
     yield lambda f, *its: pool.map(f, *its, chunksize=max(1, n_items // (4 * n)))
 
 
+def probe_scheduler(address: str, timeout: float = 5.0) -> None:
+    """A :class:`UserError` at once for a ``tcp://HOST:PORT`` address that is malformed or
+    refuses connections (``Client`` would retry for its whole timeout); other schemes are
+    left to Dask."""
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if not host or port is None:
+        raise UserError(f"--scheduler {address!r}: expected a Dask scheduler address like "
+                        "tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise UserError(f"cannot reach the Dask scheduler at {address}: "
+                        f"{exc.strerror or exc}") from None
+
+
 def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracker) -> list:
     try:
         from distributed import Client
         from distributed import as_completed as dask_completed
     except ImportError:
         raise UserError(f"the dask executor needs dask.distributed; {DASK_HINT}") from None
+    if scheduler:
+        probe_scheduler(scheduler)
     try:
         client = Client(scheduler, timeout="20s") if scheduler else Client()
     except (OSError, TimeoutError, ValueError) as exc:
