@@ -166,9 +166,13 @@ def pool_context(draws: bool = False) -> multiprocessing.context.BaseContext:
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["pipeline.run", *(["pipeline.report.build"] if draws else [])])
+    ctx.set_forkserver_preload(["pipeline.forkserver_guard", "pipeline.run",
+                                *(["pipeline.report.build"] if draws else [])])
     from multiprocessing import forkserver
 
+    from .forkserver_guard import OWNER_ENV
+
+    os.environ[OWNER_ENV] = str(os.getpid())  # the server's guard dies with this process
     with output_detached():
         forkserver.ensure_running()
     return ctx

@@ -59,9 +59,30 @@ def main(version: Annotated[bool, typer.Option(
     """Batch system identification from step and impulse tests."""
 
 
+def stoppable(command):
+    """SIGTERM and SIGINT stop the command cleanly (:mod:`pipeline.interrupt`): its
+    ``finally`` blocks run (workers ended, temporary folders removed), one line says so,
+    and the exit code is 128 + the signal (143, 130)."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        from .interrupt import Interrupted, handle_signals
+
+        with handle_signals():
+            try:
+                return command(*args, **kwargs)
+            except Interrupted as exc:
+                err.print(f"interrupted by {exc.name}: stopped, workers ended; no partial "
+                          "report left (an earlier one is kept)", markup=False)
+                raise typer.Exit(exc.exit_code) from None
+
+    return wrapper
+
+
 # -- run ---------------------------------------------------------------------------------
 
 @app.command()
+@stoppable
 @handled
 def run(
     config: Annotated[Path, typer.Argument(help="YAML run configuration")],
@@ -93,16 +114,9 @@ def run(
     left, an earlier report in --out is kept; the exit code is 143 (SIGTERM) or 130.
     """
     from .cli_run import run_command
-    from .interrupt import Interrupted, handle_signals
 
-    with handle_signals():
-        try:
-            outcome = run_command(config, out_dir, workers, executor, scheduler, baseline, junit,
-                           history, progress, param_tol, mse_tol, tol, quiet, verbose)
-        except Interrupted as exc:
-            err.print(f"interrupted by {exc.name}: the run stopped, its workers ended; "
-                      "no partial report left (an earlier one is kept)", markup=False)
-            raise typer.Exit(exc.exit_code) from None
+    outcome = run_command(config, out_dir, workers, executor, scheduler, baseline, junit,
+                          history, progress, param_tol, mse_tol, tol, quiet, verbose)
     for line in outcome.run.failures:
         err.print(f"error: {line}", markup=False)
     for line in outcome.messages:
@@ -147,6 +161,7 @@ FileArg = Annotated[Path, typer.Argument(
 
 
 @app.command(context_settings={"allow_extra_args": True})
+@stoppable
 @handled
 @with_data_options
 def identify(

@@ -100,6 +100,16 @@ def deferred() -> Iterator[None]:
 PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
 
+def die_with_parent(sig: int = signal.SIGKILL) -> None:
+    """Linux: the kernel sends ``sig`` to this process when its parent ends (prctl(2)
+    PR_SET_PDEATHSIG); elsewhere nothing."""
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, sig, 0, 0, 0)
+
+
 def guard_worker(owner: int) -> None:
     """Make this pool worker die with ``owner`` (the pid of the process running the batch).
 
@@ -107,12 +117,7 @@ def guard_worker(owner: int) -> None:
     each worker, decides how the batch stops (it terminates the workers).
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if sys.platform.startswith("linux"):
-        with contextlib.suppress(OSError, AttributeError):
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    die_with_parent()
     parent = os.getppid()
     if not _alive(owner) or os.getppid() != parent:
         os._exit(1)  # the owner died before the guard was set
