@@ -209,8 +209,6 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     created = created or now_iso()
     check_executor(executor)
     specs = resolve_specs(cfg)
-    pool = stack.enter_context(local_pool(workers if executor == "local" else 1, len(specs),
-                                          draws=cfg.report.plots != "none"))
     # the baseline and the history are read, the output files checked, before the batch:
     # a bad one costs no run
     for path, what in ((junit, "JUnit file"), (history, "history")):
@@ -225,6 +223,8 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
         from .history import load_history
 
         past = load_history(history)
+    pool = stack.enter_context(local_pool(workers if executor == "local" else 1, len(specs),
+                                          draws=cfg.report.plots != "none"))
     records = run_records(specs, cfg, process_record, workers=workers, executor=executor,
                           scheduler=scheduler, progress=progress, pool=pool)
     stages = stack.enter_context(Stages(show_progress(progress)))
