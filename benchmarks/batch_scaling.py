@@ -69,6 +69,8 @@ def main() -> None:
                 for w in (1, args.workers):
                     out = folder / f"out_{plots}_{w}"
                     times.setdefault((plots, w), []).append(cold_run(cfg, w, out))
+                    print(f"plots {plots}, {w} worker(s): {times[(plots, w)][-1]:.1f} s, "
+                          f"load {os.getloadavg()[0]:.1f}", file=sys.stderr, flush=True)
                 if records(folder / f"out_{plots}_1") != \
                         records(folder / f"out_{plots}_{args.workers}"):
                     raise SystemExit(f"plots {plots}: 1 and {args.workers} workers differ")
