@@ -58,7 +58,8 @@ def main() -> None:
     load1 = os.getloadavg()[0]
     med = {k: statistics.median(v) for k, v in times.items()}
     bare = med["python -c pass"]
-    print(f"### Start-up ({rounds} interleaved rounds: wall time median and minimum, CPU time median)\n")
+    print(f"### Start-up ({rounds} interleaved rounds: wall time median and minimum, "
+          "CPU time median)\n")
     print(f"`python benchmarks/startup.py --rounds {rounds}` on "
           f"{platform.python_implementation()} {platform.python_version()}, "
           f"{os.cpu_count()} CPU(s); 1-minute load average {load0:.1f} before and "
