@@ -1,12 +1,14 @@
-"""Batch scaling: the same synthetic logs processed in-process and by a local process pool.
+"""Batch scaling: a cold ``pipeline run`` over the same synthetic logs, 1 worker against 2.
 
 Writes ``--n`` synthetic logs (:func:`pipeline.synth.logs.write_synthetic_logs`, 4 steps
-each, all methods) into a temporary folder, runs :func:`pipeline.batch.run_records` with
-``workers=1`` and with ``--workers`` processes, checks that both give the same results, and
-prints a Markdown snippet with the wall times (the first pool run includes starting the
-workers and their imports, the second does not) and the speed-ups.
+each, all methods) into a temporary folder and runs the real command line, each run a
+fresh process (cold: the interpreter, the imports, the fork server and the workers all
+start anew), for ``report.plots: none`` and ``report.plots: summary``, with ``--workers
+1`` and ``--workers N``, interleaved (``--rounds`` rounds of the four runs). Checks that
+1 and N workers give the same results.json records, and prints a Markdown snippet with
+the wall times and the speed-ups (the issue 14 target: N=2 at least 1.8x one worker).
 
-    python benchmarks/batch_scaling.py [--n 200] [--workers 2]
+    python benchmarks/batch_scaling.py [--n 200] [--workers 2] [--rounds 1]
 """
 
 from __future__ import annotations
@@ -15,88 +17,76 @@ import argparse
 import json
 import os
 import platform
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-from pipeline.batch import run_records
-from pipeline.config import config_from_dict
-from pipeline.run import resolve_specs
 from pipeline.synth.logs import write_synthetic_logs
 
+ROOT = Path(__file__).resolve().parents[1]
+PLOTS = ("none", "summary")
 
-def timed_run(specs, cfg, workers: int) -> tuple[float, list]:
+
+def write_config(folder: Path, plots: str) -> Path:
+    cfg = folder / f"bench_{plots}.yaml"
+    cfg.write_text(f"name: bench\ndata:\n  path: logs\n  input: u\n  output: y\n"
+                   f"  time: time\nreport:\n  plots: {plots}\n")
+    return cfg
+
+
+def cold_run(cfg: Path, workers: int, out: Path) -> float:
+    """Wall time of one ``pipeline run`` process."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
     t0 = time.perf_counter()
-    results = run_records(specs, cfg, workers=workers, progress=False)
-    return time.perf_counter() - t0, results
+    subprocess.run([sys.executable, "-m", "pipeline", "run", str(cfg), "--workers",
+                    str(workers), "--out", str(out), "--quiet"], env=env, check=True,
+                   cwd=cfg.parent, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - t0
 
 
-def first_difference(a: list, b: list) -> str | None:
-    """``None`` when both runs gave the same results, else the first record that differs."""
-    for ra, rb in zip(a, b, strict=True):
-        da, db = ra.to_dict(), rb.to_dict()
-        if json.dumps(da, sort_keys=True) != json.dumps(db, sort_keys=True):
-            fits = [(fa["method"], fa["params"], fb["params"]) for fa, fb in
-                    zip(da["fits"], db["fits"], strict=False) if fa != fb]
-            return f"{da['name']}: {fits[:1] or 'record fields differ'}"
-    return None
-
-
-def markdown(n: int, workers: int, times: dict[str, float], n_failed: int, n_fits: int,
-             load: tuple[float, float]) -> str:
-    t1 = times["inline"]
-    rows = [f"| 1 (in-process) | {t1:.1f} | {n / t1:.1f} | 1.00 |"]
-    for key, label in (("cold", "process pool, cold start"), ("warm", "process pool, warm")):
-        t = times[key]
-        rows.append(f"| {workers} ({label}) | {t:.1f} | {n / t:.1f} | {t1 / t:.2f} |")
-    return "\n".join([
-        f"### Batch scaling ({n} synthetic logs, all methods)",
-        "",
-        f"`python benchmarks/batch_scaling.py --n {n} --workers {workers}` on "
-        f"{platform.python_implementation()} {platform.python_version()}, "
-        f"{os.cpu_count()} CPU(s); 1-minute load average {load[0]:.1f} before and "
-        f"{load[1]:.1f} after the runs; native BLAS/OpenMP pools limited to one thread in "
-        "the in-process loop and in every pool worker (`pipeline.batch.limit_native_threads`).",
-        "",
-        "| workers | wall time (s) | records/s | speed-up |",
-        "|---:|---:|---:|---:|",
-        *rows,
-        "",
-        f"{n_fits} fits, {n_failed} failed record(s) (none expected); the pool's results are "
-        "identical to the in-process ones. Cold start: the first pool of the process, which "
-        "starts the fork server and imports `pipeline.run` (numpy, scipy, polars) once; "
-        "warm: a second pool in the same process, forked from the already loaded server.",
-    ])
+def records(out: Path) -> list[dict]:
+    return json.loads((out / "results.json").read_text())["records"]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=200, help="number of logs")
     ap.add_argument("--workers", type=int, default=2, help="processes of the pool run")
+    ap.add_argument("--rounds", type=int, default=1, help="interleaved rounds")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
+    times: dict[tuple[str, int], list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp) / "logs"
-        write_synthetic_logs(folder, args.n, seed=args.seed)
-        cfg = config_from_dict({"data": {"path": str(folder), "input": "u", "output": "y",
-                                         "time": "time"}}, base_dir=str(folder))
-        specs = resolve_specs(cfg)
-        load_before = _load()
-        times: dict[str, float] = {}
-        times["inline"], inline = timed_run(specs, cfg, 1)
-        times["cold"], pooled = timed_run(specs, cfg, args.workers)
-        times["warm"], _ = timed_run(specs, cfg, args.workers)
-        load_after = _load()
-    diff = first_difference(inline, pooled)
-    if diff:
-        raise SystemExit(f"the pool gave different results from the in-process run: {diff}")
-    n_failed = sum(1 for r in inline if not r.ok)
-    n_fits = sum(len(r.fits) for r in inline)
-    print(markdown(args.n, args.workers, times, n_failed, n_fits, (load_before, load_after)))
-
-
-def _load() -> float:
-    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+        folder = Path(tmp)
+        write_synthetic_logs(folder / "logs", args.n, seed=args.seed)
+        load0 = os.getloadavg()[0]
+        for _ in range(args.rounds):
+            for plots in PLOTS:
+                cfg = write_config(folder, plots)
+                for w in (1, args.workers):
+                    out = folder / f"out_{plots}_{w}"
+                    times.setdefault((plots, w), []).append(cold_run(cfg, w, out))
+                    print(f"plots {plots}, {w} worker(s): {times[(plots, w)][-1]:.1f} s, "
+                          f"load {os.getloadavg()[0]:.1f}", file=sys.stderr, flush=True)
+                if records(folder / f"out_{plots}_1") != \
+                        records(folder / f"out_{plots}_{args.workers}"):
+                    raise SystemExit(f"plots {plots}: 1 and {args.workers} workers differ")
+        load1 = os.getloadavg()[0]
+    print(f"### Batch scaling: cold `pipeline run` over {args.n} logs\n")
+    print(f"`python benchmarks/batch_scaling.py --n {args.n} --workers {args.workers} "
+          f"--rounds {args.rounds}` on {platform.python_implementation()} "
+          f"{platform.python_version()}, {os.cpu_count()} CPU(s); 1-minute load average "
+          f"{load0:.1f} before and {load1:.1f} after. Wall time of the whole command "
+          "(median over the rounds); results.json records identical for 1 and N workers.\n")
+    print(f"| report.plots | 1 worker (s) | {args.workers} workers (s) | speed-up |")
+    print("|---|---:|---:|---:|")
+    for plots in PLOTS:
+        t1 = statistics.median(times[(plots, 1)])
+        tn = statistics.median(times[(plots, args.workers)])
+        print(f"| {plots} | {t1:.1f} | {tn:.1f} | {t1 / tn:.2f}x |")
 
 
 if __name__ == "__main__":

@@ -10,62 +10,80 @@ batch always completes.
 
 * ``workers == 1`` (or a single record): a plain loop in this process.
 * ``workers > 1`` (default: one per core, at most one per record): a
-  :class:`concurrent.futures.ProcessPoolExecutor` whose workers start from a clean
-  ``forkserver`` process (``spawn`` where there is none), never by forking this possibly
-  threaded process; each worker limits the native BLAS/OpenMP pools to one thread
-  (threadpoolctl, :func:`limit_native_threads`), as the in-process loop does.
-  The specs and the config are small frozen, picklable values.
+  :class:`concurrent.futures.ProcessPoolExecutor` (:func:`local_pool`) whose workers start
+  from a clean ``forkserver`` process (``spawn`` where there is none), never by forking
+  this possibly threaded process; each worker limits the native BLAS/OpenMP pools to one
+  thread (threadpoolctl, :func:`limit_native_threads`), as the in-process loop does, and
+  dies with this process (:func:`pipeline.interrupt.guard_worker`). An exception here
+  (:class:`~pipeline.interrupt.Interrupted` by SIGTERM or SIGINT included) cancels what is
+  queued and terminates the workers. The specs and the config are small frozen, picklable
+  values. A caller may pass its own pool (``pool=``) to use it again afterwards, e.g. for
+  the report's plots (:func:`parallel_map`), instead of starting a second one.
 * ``executor="dask"``: ``dask.distributed.Client(scheduler).map`` of the same job (the
-  optional ``dask`` extra; the workers need ``pipeline`` installed). ``scheduler=None``
-  starts a temporary local cluster, as ``Client()`` does.
+  optional ``dask`` extra; the workers need ``pipeline`` importable). ``scheduler=None``
+  starts a temporary local cluster, as ``Client()`` does. Paths in the specs must be
+  absolute (:func:`pipeline.run.resolve_specs` makes them so): a worker runs elsewhere.
 
-A rich progress bar (records done, failures, elapsed time, ETA) is drawn on stderr when
-``progress`` is True, or when it is None and stdout is a terminal.
+Progress (:mod:`pipeline.progress`): a bar on stderr when ``progress`` is True, or when it
+is None and stderr is a terminal; each record's time and outcome is logged at INFO on the
+``pipeline`` logger (``pipeline run --verbose``).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import multiprocessing
 import os
-import sys
+import socket
+import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
-from contextlib import AbstractContextManager, contextmanager
+from contextlib import contextmanager
 from typing import Any
 
 from .errors import UserError
+from .interrupt import guard_worker, output_detached
+from .progress import Tracker, show_progress
 from .results import RecordResult
 
 EXECUTORS = ("local", "dask")
 DASK_HINT = "install the dask extra: pip install .[dask]"
 
 Job = Callable[[Any, Any], Any]
+log = logging.getLogger(__name__)
 
 
 def run_records(specs: Sequence, cfg, job: Job, *, workers: int | None = None,
                 executor: str = "local", scheduler: str | None = None,
-                progress: bool | None = None) -> list:
+                progress: bool | None = None, pool: ProcessPoolExecutor | None = None) -> list:
     """``[job(spec, cfg) for spec in specs]``, computed in parallel (module docstring).
 
     ``job`` must be a module-level function (it is pickled by name). Raises
     :class:`UserError` for a bad ``executor``, ``workers`` < 1, a missing Dask installation
-    or an unreachable scheduler.
+    or an unreachable scheduler. ``pool``: a :func:`local_pool` to run in (``workers`` is
+    then ignored).
     """
-    if executor not in EXECUTORS:
-        raise UserError(f"unknown executor {executor!r}; expected one of: "
-                        + ", ".join(EXECUTORS))
+    check_executor(executor)
     specs = list(specs)
     if not specs:
         return []
-    show = sys.stdout.isatty() if progress is None else progress
-    with Tracker(len(specs), show) as tracker:
+    with Tracker(len(specs), show_progress(progress)) as tracker:
         if executor == "dask":
             return _run_dask(specs, cfg, job, scheduler, tracker)
-        n = resolve_workers(workers, len(specs))
-        if n == 1:
-            return _run_inline(specs, cfg, job, tracker)
-        return _run_pool(specs, cfg, job, n, tracker)
+        if pool is not None:
+            return _run_pool(specs, cfg, job, pool, tracker)
+        with local_pool(workers, len(specs)) as own:
+            if own is None:
+                return _run_inline(specs, cfg, job, tracker)
+            return _run_pool(specs, cfg, job, own, tracker)
+
+
+def check_executor(executor: str) -> None:
+    """A :class:`UserError` for an executor that is not one of :data:`EXECUTORS`."""
+    if executor not in EXECUTORS:
+        raise UserError(f"unknown executor {executor!r}; expected one of: "
+                        + ", ".join(EXECUTORS))
 
 
 def resolve_workers(workers: int | None, n_records: int) -> int:
@@ -102,11 +120,18 @@ def limit_native_threads() -> Iterator[None]:
         yield
 
 
-def _worker_init() -> None:
-    """Pool worker start-up: one native thread for the worker's life."""
+def _worker_init(owner: int) -> None:
+    """Pool worker start-up: die with ``owner``, one native thread for the worker's life."""
+    guard_worker(owner)
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1)
+
+
+def timed(job: Job, spec, cfg) -> tuple[Any, float]:
+    """``(job(spec, cfg), seconds)``: what a worker sends back (module-level: picklable)."""
+    t0 = time.perf_counter()
+    return job(spec, cfg), time.perf_counter() - t0
 
 
 # -- executors ---------------------------------------------------------------------------
@@ -115,71 +140,153 @@ def _run_inline(specs: list, cfg, job: Job, tracker: Tracker) -> list:
     out = []
     with limit_native_threads():
         for spec in specs:
+            tracker.start(getattr(spec, "name", str(spec)))
+            t0 = time.perf_counter()
             try:
                 result = job(spec, cfg)
             except Exception as exc:  # the job's contract is broken; keep the batch going
                 result = crashed(spec, exc)
-            tracker.done(result)
+            tracker.done(result, time.perf_counter() - t0)
             out.append(result)
     return out
 
 
-def pool_context() -> multiprocessing.context.BaseContext:
+def pool_context(draws: bool = False) -> multiprocessing.context.BaseContext:
     """``forkserver`` where available (Linux, macOS), else ``spawn``: no fork of a
     threaded parent.
 
-    The fork server imports ``pipeline.run`` once (numpy, scipy, polars ... take seconds)
-    and every worker is forked from it with the modules loaded; the server lives as long
-    as this process, so later pools start at once.
+    The fork server imports ``pipeline.run`` once (numpy, scipy, polars ... take seconds),
+    and ``pipeline.report.build`` (matplotlib, another second) when the pool will
+    ``draws`` the report's plots; every worker is forked from it with the modules loaded.
+    The server lives as long as this process (its modules are those of its start). It and
+    the resource tracker are started with stdout and stderr on /dev/null
+    (:func:`pipeline.interrupt.output_detached`): a helper must never hold the caller's
+    pipes (``out=$(pipeline run ...)`` would hang).
     """
     if "forkserver" not in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("spawn")
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["pipeline.run", "pipeline.report.build"])
+    ctx.set_forkserver_preload(["pipeline.forkserver_guard", "pipeline.run",
+                                *(["pipeline.report.build"] if draws else [])])
+    from multiprocessing import forkserver
+
+    from .forkserver_guard import OWNER_ENV
+
+    os.environ[OWNER_ENV] = str(os.getpid())  # the server's guard dies with this process
+    with output_detached():
+        forkserver.ensure_running()
     return ctx
 
 
-def _run_pool(specs: list, cfg, job: Job, n: int, tracker: Tracker) -> list:
-    """Records in a process pool; the parent works too, from the back of the queue.
+@contextlib.contextmanager
+def local_pool(workers: int | None, n_items: int,
+               draws: bool = False) -> Iterator[ProcessPoolExecutor | None]:
+    """A process pool of :func:`resolve_workers` workers, or None when that is one;
+    ``draws``: it will also draw plots (:func:`pool_context`).
+
+    Leaving the block normally waits for the pool; leaving it by an exception (an
+    :class:`~pipeline.interrupt.Interrupted` included) cancels the queued work and
+    terminates the workers at once.
+    """
+    n = resolve_workers(workers, n_items)
+    if n == 1:
+        yield None
+        return
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=pool_context(draws),
+                               initializer=_worker_init, initargs=(os.getpid(),))
+    try:
+        yield pool
+    except BaseException:
+        terminate(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def terminate(pool: ProcessPoolExecutor) -> None:
+    """Cancel the queued futures and end the workers now (SIGTERM, then SIGKILL).
+
+    ``ProcessPoolExecutor`` has no public way to stop running work before Python 3.14
+    (``terminate_workers``); its ``_processes`` map is the documented-in-source handle.
+    """
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    deadline = time.monotonic() + 2.0
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.join(max(0.0, deadline - time.monotonic()))
+            if p.is_alive():
+                p.kill()
+                p.join(1.0)
+
+
+def _run_pool(specs: list, cfg, job: Job, pool: ProcessPoolExecutor, tracker: Tracker) -> list:
+    """Records in a process pool; the parent works too while the workers start.
 
     Starting the workers costs seconds (the fork server imports numpy, scipy, polars).
-    Instead of waiting, the parent takes the last queued records itself: a future that is
-    still pending can be cancelled and run here; it stops when it meets a record the
-    pool has already claimed. Results are the same either way (pure per-record jobs).
+    Instead of waiting, the parent takes the last queued records itself (a pending future
+    can be cancelled and run here), but only until a worker has finished its first
+    record: from then on the parent would only compete with the workers for the cores.
+    Results are the same either way (pure per-record jobs).
     """
     out: list = [None] * len(specs)
-    with ProcessPoolExecutor(max_workers=n, mp_context=pool_context(),
-                             initializer=_worker_init) as pool:
-        futures: dict[Future, int] = {pool.submit(job, spec, cfg): i
-                                      for i, spec in enumerate(specs)}
-        stolen = set()
-        for fut in reversed(list(futures)):
-            if not fut.cancel():
-                break
-            i = futures[fut]
-            stolen.add(fut)
-            out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
-        for fut in as_completed([f for f in futures if f not in stolen]):
-            i = futures[fut]
-            try:
-                out[i] = fut.result()
-            except Exception as exc:  # a worker died (BrokenProcessPool) or the job raised
-                out[i] = crashed(specs[i], exc)
-            tracker.done(out[i])
+    futures: dict[Future, int] = {pool.submit(timed, job, spec, cfg): i
+                                  for i, spec in enumerate(specs)}
+    workers_up: list[bool] = []
+    for fut in futures:
+        fut.add_done_callback(lambda f: workers_up.append(not f.cancelled()))
+    stolen = set()
+    for fut in reversed(list(futures)):
+        if any(workers_up) or not fut.cancel():
+            break
+        i = futures[fut]
+        stolen.add(fut)
+        out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
+    for fut in as_completed([f for f in futures if f not in stolen]):
+        i = futures[fut]
+        try:
+            out[i], seconds = fut.result()
+        except Exception as exc:  # a worker died (BrokenProcessPool) or the job raised
+            out[i], seconds = crashed(specs[i], exc), None
+        tracker.done(out[i], seconds)
     return out
 
 
 @contextlib.contextmanager
-def parallel_map(workers: int | None, n_items: int, min_items: int = 8):
+def parallel_map(pool: ProcessPoolExecutor | None, n_items: int, min_items: int = 8):
     """A ``map`` for pure, picklable per-record work (e.g. a record's report section):
-    a local process pool's ``map`` when there are workers and enough items, else ``map``."""
-    n = resolve_workers(workers, n_items)
-    if n == 1 or n_items < min_items:
+    ``pool``'s ``map`` (the batch's pool, used again) when there is one and enough items,
+    else the built-in ``map`` in this process."""
+    if pool is None or n_items < min_items:
         yield map
         return
-    with ProcessPoolExecutor(max_workers=n, mp_context=pool_context(),
-                             initializer=_worker_init) as pool:
-        yield lambda f, *its: pool.map(f, *its, chunksize=max(1, n_items // (4 * n)))
+    n = max(1, getattr(pool, "_max_workers", 1))
+    yield lambda f, *its: pool.map(f, *its, chunksize=max(1, n_items // (4 * n)))
+
+
+def probe_scheduler(address: str, timeout: float = 5.0) -> None:
+    """A :class:`UserError` at once for a ``tcp://HOST:PORT`` address that is malformed or
+    refuses connections (``Client`` would retry for its whole timeout); other schemes are
+    left to Dask."""
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if not host or port is None:
+        raise UserError(f"--scheduler {address!r}: expected a Dask scheduler address like "
+                        "tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise UserError(f"cannot reach the Dask scheduler at {address}: "
+                        f"{exc.strerror or exc}") from None
 
 
 def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracker) -> list:
@@ -188,6 +295,8 @@ def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracke
         from distributed import as_completed as dask_completed
     except ImportError:
         raise UserError(f"the dask executor needs dask.distributed; {DASK_HINT}") from None
+    if scheduler:
+        probe_scheduler(scheduler)
     try:
         client = Client(scheduler, timeout="20s") if scheduler else Client()
     except (OSError, TimeoutError, ValueError) as exc:
@@ -195,62 +304,15 @@ def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracke
                         f"{type(exc).__name__}: {exc}") from None
     with client:
         cfg_future = client.scatter(cfg, broadcast=True)
-        futures = client.map(job, specs, cfg=cfg_future, pure=False)
+        futures = client.map(timed, [job] * len(specs), specs, cfg=cfg_future, pure=False)
         index = {fut.key: i for i, fut in enumerate(futures)}
         out: list = [None] * len(specs)
         for fut in dask_completed(futures):
             i = index[fut.key]
             try:
-                out[i] = fut.result()
+                out[i], seconds = fut.result()
             except Exception as exc:  # the job raised on the worker, or the worker died
-                out[i] = crashed(specs[i], exc)
-            tracker.done(out[i])
+                out[i], seconds = crashed(specs[i], exc), None
+            tracker.done(out[i], seconds)
             fut.release()
         return out
-
-
-# -- progress ----------------------------------------------------------------------------
-
-class Tracker(AbstractContextManager):
-    """Counts finished records and failures; draws a rich progress bar when ``show``."""
-
-    def __init__(self, total: int, show: bool) -> None:
-        self.total = total
-        self.show = show
-        self.completed = 0
-        self.failures = 0
-        self._progress = None
-        self._task = None
-
-    def __enter__(self) -> Tracker:
-        if self.show:
-            from rich.console import Console
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-                TimeRemainingColumn,
-            )
-
-            self._progress = Progress(
-                TextColumn("[bold]records"), BarColumn(), MofNCompleteColumn(),
-                TextColumn("failures: {task.fields[failures]}"), TimeElapsedColumn(),
-                TextColumn("ETA"), TimeRemainingColumn(),
-                console=Console(stderr=True), transient=False,
-            )
-            self._progress.start()
-            self._task = self._progress.add_task("records", total=self.total, failures=0)
-        return self
-
-    def done(self, result) -> None:
-        self.completed += 1
-        self.failures += int(is_failure(result))
-        if self._progress is not None:
-            self._progress.update(self._task, advance=1, failures=self.failures)
-
-    def __exit__(self, *exc) -> None:
-        if self._progress is not None:
-            self._progress.stop()
-        return None

@@ -66,9 +66,30 @@ def main(version: Annotated[bool, typer.Option(
     """Batch system identification from step and impulse tests."""
 
 
+def stoppable(command):
+    """SIGTERM and SIGINT stop the command cleanly (:mod:`pipeline.interrupt`): its
+    ``finally`` blocks run (workers ended, temporary folders removed), one line says so,
+    and the exit code is 128 + the signal (143, 130)."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        from .interrupt import Interrupted, handle_signals
+
+        with handle_signals():
+            try:
+                return command(*args, **kwargs)
+            except Interrupted as exc:
+                err.print(f"interrupted by {exc.name}: stopped, workers ended; no partial "
+                          "report left (an earlier one is kept)", markup=False)
+                raise typer.Exit(exc.exit_code) from None
+
+    return wrapper
+
+
 # -- run ---------------------------------------------------------------------------------
 
 @app.command()
+@stoppable
 @handled
 def run(
     config: Annotated[Path, typer.Argument(help="YAML run configuration")],
@@ -88,14 +109,21 @@ def run(
     mse_tol: Annotated[float, typer.Option(help="validation MSE growth tolerance")] = 0.10,
     tol: Annotated[list[str] | None, typer.Option(
         help="per-parameter tolerance, e.g. --tol T=0.1 (repeatable)")] = None,
+    quiet: Annotated[bool, typer.Option(
+        "--quiet", "-q", help="errors only on stderr (no progress bar)")] = False,
+    verbose: Annotated[bool, typer.Option(
+        "--verbose", "-v", help="each record's stages and time, each report step, on stderr")]
+    = False,
 ) -> None:
-    """Identify and validate every record a config names; write results.json and reports."""
-    from .run import run_config
+    """Identify and validate every record a config names; write results.json and reports.
 
-    tolerances = _tolerances(tol or [], param_tol=param_tol, mse_tol=mse_tol)
-    outcome = run_config(config, out_dir=out_dir, workers=workers, executor=executor,
-                         scheduler=scheduler, baseline=baseline, junit=junit, history=history,
-                         progress=progress, tolerances=tolerances)
+    SIGTERM or Ctrl-C stops the run cleanly: the workers end, nothing half-written is
+    left, an earlier report in --out is kept; the exit code is 143 (SIGTERM) or 130.
+    """
+    from .cli_run import run_command
+
+    outcome = run_command(config, out_dir, workers, executor, scheduler, baseline, junit,
+                          history, progress, param_tol, mse_tol, tol, quiet, verbose)
     for line in outcome.run.failures:
         error_line(line)
     for line in outcome.messages:
@@ -104,35 +132,6 @@ def run(
     if code == ExitCode.SOME_FAILED and allow_failures:
         code = ExitCode.OK
     raise typer.Exit(code)
-
-
-def _tolerances(items: list[str], *, param_tol: float = 0.05, mse_tol: float = 0.10):
-    """The gate's :class:`~pipeline.baseline.Tolerances` from ``--param-tol``, ``--mse-tol``
-    and each ``--tol PARAMETER=FRACTION``; a NaN, negative or infinite one (the gate would
-    switch off or fire on everything) is one line naming the option."""
-    from .baseline import Tolerances, tolerance_problem
-    from .models import PARAMETERS
-
-    for option, name, value in (("--param-tol", "param_tol", param_tol),
-                                ("--mse-tol", "mse_tol", mse_tol)):
-        problem = tolerance_problem(name, value)
-        if problem:
-            raise UserError(f"{option} {value!r}: {problem}")
-    per = {}
-    for item in items:
-        name, eq, value = item.partition("=")
-        name = name.strip()
-        try:
-            per[name] = float(value) if eq else float("x")
-        except ValueError:
-            raise UserError(f"--tol {item!r}: expected PARAMETER=FRACTION, e.g. T=0.1") from None
-        if name not in PARAMETERS:
-            raise UserError(f"--tol {item!r}: unknown parameter {name!r}; expected one of "
-                            + ", ".join(PARAMETERS))
-        problem = tolerance_problem(f"tolerance of {name}", per[name])
-        if problem:
-            raise UserError(f"--tol {item!r}: {problem}")
-    return Tolerances(param_tol=param_tol, mse_tol=mse_tol, param_tols=per)
 
 
 # -- identify / segment ------------------------------------------------------------------
@@ -169,6 +168,7 @@ FileArg = Annotated[Path, typer.Argument(
 
 
 @app.command(context_settings={"allow_extra_args": True})
+@stoppable
 @handled
 @with_data_options
 def identify(
@@ -302,14 +302,15 @@ def segment(
 @app.command()
 def methods() -> None:
     """List the identification methods: id, event kind, model structures, reference."""
-    from .methods import REGISTRY
+    from .method_catalogue import catalogue  # metadata only: no scipy to start
 
     tab = Table(title="Methods")
     tab.add_column("id", no_wrap=True)
     for col in ("event", "structures", "title", "reference"):
         tab.add_column(col)
-    for m in REGISTRY.values():
-        tab.add_row(m.id, m.event, ", ".join(m.structures), m.title, m.citation)
+    for m in catalogue():
+        tab.add_row(m["id"], m["event"], ", ".join(m["structures"]), m["title"],
+                    m["citation"])
     out.print(tab)
 
 

@@ -15,6 +15,8 @@ Both commands end in :func:`pipeline.analysis.analyse` with options built by
 from __future__ import annotations
 
 import os
+import time
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -26,8 +28,11 @@ from .files import check_writable
 from .io import load_record
 from .io.options import check_file
 from .io.paths import files_named
+from .log import logger
 from .results import RecordResult, RunResult
 from .segmentation import SegmentOptions
+
+log = logger(__name__)
 
 
 @dataclass(frozen=True)
@@ -73,14 +78,19 @@ def analysis_options(cfg: RunConfig) -> AnalysisOptions:
 
 def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
     """The records a config names; a path that matches nothing, or a ``data:`` key that
-    does not apply to a file's format, is a :class:`UserError`."""
+    does not apply to a file's format, is a :class:`UserError`.
+
+    Every path is absolute (relative ones are taken from the config file's folder, here,
+    in the client): a spec may be processed by a Dask worker started in another folder.
+    """
     d = cfg.data
     if d.dataset:
         from .datasets import fetch
 
-        return [RecordSpec(name=d.dataset, path=str(fetch(d.dataset)), dataset=d.dataset)]
+        return [RecordSpec(name=d.dataset, path=str(Path(fetch(d.dataset)).absolute()),
+                           dataset=d.dataset)]
     patterns = [d.path] if d.path else list(d.paths or [])
-    base = Path(cfg.base_dir)
+    base = Path(cfg.base_dir).absolute()
     files: list[Path] = []
     for pat in patterns:
         found = files_named(pat, base)
@@ -132,7 +142,11 @@ def effective_data(cfg: RunConfig, spec: RecordSpec) -> DataConfig:
 def process_record(spec: RecordSpec, cfg: RunConfig) -> RecordResult:
     """Load and analyse one record; a bad record comes back with ``error`` set."""
     try:
+        log.info("%s: loading %s", spec.name, spec.path, extra={"stage": "load"})
+        t0 = time.perf_counter()
         record = load_record(Path(spec.path), effective_data(cfg, spec), name=spec.name)
+        log.info("%s: loaded %d samples in %.2f s; analysing", spec.name, record.n_samples,
+                 time.perf_counter() - t0, extra={"stage": "analyse"})
         return analyse(record, analysis_options(cfg), name=spec.name)
     except UserError as exc:
         return RecordResult(name=spec.name, source=spec.path, error=exc.message)
@@ -161,24 +175,38 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
 
 # -- a config ----------------------------------------------------------------------------
 
-def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = None,
-               workers: int | None = None, executor: str = "local",
-               scheduler: str | None = None, baseline: Path | None = None,
-               junit: Path | None = None, history: Path | None = None,
-               progress: bool | None = None, created: str | None = None,
-               tolerances=None) -> Outcome:
+def run_config(config: str | os.PathLike | RunConfig, **options) -> Outcome:
     """Run a config end to end: every record, one report, the optional gate and history.
 
-    Exit codes: 0 done, 1 a regression against ``baseline``, 3 some records failed, 2 all
-    records failed (the reports, JUnit file and history row are written all the same).
-    The report folder is ``out_dir``, else :meth:`RunConfig.report_folder`; it and the
-    JUnit and history files are checked before the batch. User errors raise :class:`UserError`.
-    ``tolerances`` is a :class:`pipeline.baseline.Tolerances` (defaults when None).
-    """
-    from .batch import parallel_map, run_records
+    Keywords: ``out_dir``, ``workers``, ``executor``, ``scheduler``, ``baseline``,
+    ``junit``, ``history``, ``progress``, ``created`` and ``tolerances`` (a
+    :class:`pipeline.baseline.Tolerances`, defaults when None). Exit codes: 0 done, 1 a
+    regression against ``baseline``, 3 some records failed, 2 all records failed (the
+    reports, JUnit file and history row are written all the same). The report folder is
+    ``out_dir``, else :meth:`RunConfig.report_folder`; it and the JUnit and history files
+    are checked before the batch. User errors raise :class:`UserError`.
 
+    The local process pool and the progress bars live in one :class:`~contextlib.ExitStack`
+    around the run: the pool that ran the records draws the report's plots (no second
+    pool), and an exception (SIGTERM included, :mod:`pipeline.interrupt`) ends its workers.
+    """
+    with ExitStack() as stack:
+        return _run_config(config, stack, **options)
+
+
+def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
+                out_dir: Path | None = None, workers: int | None = None,
+                executor: str = "local", scheduler: str | None = None,
+                baseline: Path | None = None, junit: Path | None = None,
+                history: Path | None = None, progress: bool | None = None,
+                created: str | None = None, tolerances=None) -> Outcome:
+    from .batch import check_executor, local_pool, parallel_map, run_records
+    from .progress import Stages, show_progress
+
+    started = time.perf_counter()  # the JUnit file's time
     cfg = config if isinstance(config, RunConfig) else load_config(config)
     created = created or now_iso()
+    check_executor(executor)
     specs = resolve_specs(cfg)
     # the baseline and the history are read, the output files checked, before the batch:
     # a bad one costs no run
@@ -197,8 +225,11 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
         from .history import load_history
 
         past = load_history(history)
+    pool = stack.enter_context(local_pool(workers if executor == "local" else 1, len(specs),
+                                          draws=cfg.report.plots != "none"))
     records = run_records(specs, cfg, process_record, workers=workers, executor=executor,
-                          scheduler=scheduler, progress=progress)
+                          scheduler=scheduler, progress=progress, pool=pool)
+    stages = stack.enter_context(Stages(show_progress(progress)))
     run = RunResult(records, config=cfg.source, created=created)
     # every record failing still writes the reports, the JUnit file and the history (CI
     # sees the failures), and exits 2
@@ -222,22 +253,29 @@ def run_config(config: str | os.PathLike | RunConfig, *, out_dir: Path | None = 
         from .history import history_rows
         from .report.history_plots import baseline_reference, history_figures
 
+        stages.step("history plots")
         rows = history_rows(doc, run_time)  # the file is appended after the report
         frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
         extras.history = history_figures(  # normalised to the baseline, else the first run
             frame, reference=baseline_reference(base_doc) if base_doc is not None else None)
-    with parallel_map(workers if executor == "local" else 1, len(records)) as mapper:
+    # nothing to draw: the sections are tables, built here; else the batch's pool draws
+    draws = pool if cfg.report.plots != "none" else None
+    stages.step("report sections", total=len(records))
+    with parallel_map(draws, len(records)) as mapper:
         write_run(target, run, doc, title=cfg.report.title or f"System identification: "
                   f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
-                  html=cfg.report.html, plots_mode=cfg.report.plots, mapper=mapper)
+                  html=cfg.report.html, plots_mode=cfg.report.plots,
+                  mapper=stages.counting(mapper))
     if history is not None:  # after the report: --history may point into the output folder
         from .history import append_history
 
+        stages.step("history")
         append_history(history, doc, run_time)
     if junit is not None:  # after the report, for the same reason
         from .report.junit import write_junit
 
-        write_junit(junit, doc, comparison)
+        stages.step("JUnit")
+        write_junit(junit, doc, comparison, time=time.perf_counter() - started)
     n_ok = len(records) - len(run.failures)
     from .grade import record_verdict
 

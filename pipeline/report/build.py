@@ -16,6 +16,7 @@ from ..errors import UserError
 from ..files import check_writable
 from ..findings import Comparison
 from ..grade import FLAGS
+from ..interrupt import deferred
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
 from .markdown import finalize, finalize_html, md_code, md_text
@@ -122,7 +123,8 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
     if html:
         outputs["report.html"] = page.encode("utf-8")
     try:
-        publish(out_dir, outputs)
+        with deferred():  # SIGTERM waits for the writes and renames: never half a report
+            publish(out_dir, outputs)
     except OSError as exc:
         raise UserError(f"{out_dir}: cannot write the report ({exc.strerror or exc})") from None
     return out_dir

@@ -1,0 +1,117 @@
+"""Interrupted runs (issue 13 item 8): SIGTERM at random points of a 2-worker batch, and a
+SIGKILL, leave no live process, no temporary folder, the previous report intact, and the
+caller's pipes closed (``out=$(pipeline run ...)`` returns)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.run import run_config
+from pipeline.synth.logs import write_synthetic_logs
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+
+ROOT = Path(__file__).resolve().parents[1]
+TRIES = 10
+GRACE = 5.0  # s after the CLI ends: no process of its session may still run
+
+
+def session_alive(sid: int) -> list[str]:
+    """Live (not zombie) processes of session ``sid``: ``"pid cmdline"`` each."""
+    alive = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            stat = (d / "stat").read_text()
+            cmd = (d / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        fields = stat.rsplit(")", 1)[1].split()  # state ppid pgrp session ...
+        if int(fields[3]) == sid and fields[0] not in "ZX":
+            alive.append(f"{d.name} {cmd[:80]}")
+    return alive
+
+
+def wait_gone(sid: int) -> list[str]:
+    deadline = time.monotonic() + GRACE
+    while (alive := session_alive(sid)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return alive
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def nightly(tmp_path_factory):
+    d = tmp_path_factory.mktemp("interrupt")
+    write_synthetic_logs(d / "logs", 6, seed=8, n_steps=2)
+    cfg = d / "night.yaml"
+    cfg.write_text("name: night\ndata:\n  path: logs\n  input: u\n  output: y\n  time: time\n"
+                   "methods: [first_order, viteckova1, latzel]\nreport: {plots: none}\n")
+    out = d / "reports" / "night"
+    assert run_config(cfg, out_dir=out, workers=1, progress=False).exit_code == 0
+    return d, cfg, out
+
+
+def start(d: Path, cfg: Path, out: Path) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "pipeline", "run", str(cfg), "--workers", "2", "--out",
+         str(out)], cwd=d, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        start_new_session=True)
+
+
+def test_sigterm_at_random_points_leaves_nothing_behind(nightly):
+    d, cfg, out = nightly
+    before = snapshot(out)
+    delays = np.random.default_rng(13).uniform(0.2, 2.5, TRIES)
+    interrupted = 0
+    for delay in delays:
+        proc = start(d, cfg, out)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGTERM)
+        # communicate() returns only when every holder of the pipes is gone
+        stdout, stderr = proc.communicate(timeout=30)
+        err = stderr.decode()
+        assert wait_gone(proc.pid) == [], f"delay {delay:.2f} s"
+        assert sorted(p.name for p in out.parent.iterdir()) == ["night"], f"delay {delay:.2f}"
+        if proc.returncode == -signal.SIGTERM:  # before the handler: nothing had started
+            assert snapshot(out) == before
+        elif proc.returncode == 128 + signal.SIGTERM:
+            interrupted += 1
+            assert "interrupted by SIGTERM" in err and "Traceback" not in err, err
+            assert snapshot(out) == before, f"delay {delay:.2f} s: the report changed"
+        else:  # the run had finished: a complete new report
+            assert proc.returncode == 0, (delay, proc.returncode, err)
+            assert b"6 of 6 record(s)" in stdout
+            after = snapshot(out)
+            assert after.keys() == before.keys()
+            assert len(json.loads(after["results.json"])["records"]) == 6
+            before = after
+    assert interrupted >= TRIES // 2  # the random points mostly fall inside the run
+
+
+def test_sigkill_takes_the_workers_with_it(nightly):
+    d, cfg, out = nightly
+    proc = start(d, cfg, out)
+    deadline = time.monotonic() + 20
+    # CLI, resource tracker, fork server and at least one worker
+    while len(session_alive(proc.pid)) < 4 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert len(session_alive(proc.pid)) >= 4, session_alive(proc.pid)
+    proc.kill()
+    proc.communicate(timeout=30)  # the pipes close: no helper holds them
+    assert wait_gone(proc.pid) == []
