@@ -103,4 +103,5 @@ def test_one_pool_for_records_and_plots(tmp_path, monkeypatch, plots, pools):
                      progress=False)
     assert out.exit_code == 0 and len(started) == pools
     assert drawn == [plots != "none"]  # nothing to draw: the sections are built here
-    assert (tmp_path / "out" / "plots").is_dir()
+    assert (tmp_path / "out" / "report.md").is_file()
+    assert (tmp_path / "out" / "plots").is_dir() == (plots != "none")  # only what it wrote
