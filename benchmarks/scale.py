@@ -37,6 +37,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -64,17 +65,27 @@ def write_log(path: Path, n: int, n_events: int, dt: float = 0.1, seed: int = 0)
     pl.DataFrame({"time": np.arange(n) * dt, "u": u, "y": y}).write_csv(path)
 
 
-def measured(argv: list[str]) -> dict:
-    """Run ``argv`` in a fresh process: wall, CPU (user + system) and peak RSS."""
+def measured(argv: list[str], timeout: float | None = None) -> dict | None:
+    """Run ``argv`` in a fresh process: wall, CPU (user + system) and peak RSS (``wait4``);
+    None when it runs longer than ``timeout`` seconds (it is killed then)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
     t = time.perf_counter()
-    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env,
-                         cwd=ROOT)
-    out = p.stdout.read()
-    _, status, usage = os.wait4(p.pid, 0)
+    with tempfile.TemporaryFile() as sink:
+        p = subprocess.Popen(argv, stdout=sink, stderr=subprocess.DEVNULL, env=env, cwd=ROOT)
+        timer = threading.Timer(timeout, p.kill) if timeout else None
+        if timer:
+            timer.start()
+        _, status, usage = os.wait4(p.pid, 0)
+        p.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
+        if timer:
+            timer.cancel()
+        sink.seek(0)
+        out = sink.read()
     wall = time.perf_counter() - t
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise SystemExit(f"{' '.join(argv)}: exit {os.waitstatus_to_exitcode(status)}")
+    if timeout and wall >= timeout and p.returncode < 0:
+        return None
+    if p.returncode != 0:
+        raise SystemExit(f"{' '.join(argv)}: exit {p.returncode}")
     return {"wall": wall, "cpu": usage.ru_utime + usage.ru_stime,
             "rss": usage.ru_maxrss * 1024, "out": out.decode()}
 
@@ -143,6 +154,8 @@ def main() -> None:
     ap.add_argument("--cli-sizes", default="1000000:200")
     ap.add_argument("--reps", type=int, default=1)
     ap.add_argument("--keep", type=Path, default=None, help="write the logs here")
+    ap.add_argument("--cli-timeout", type=float, default=900.0,
+                    help="seconds before the CLI run is stopped (reported as not finished)")
     a = ap.parse_args()
     py = sys.executable
     me = str(Path(__file__).resolve())
@@ -163,16 +176,18 @@ def main() -> None:
                 if (n, n_events) in cli_sizes:
                     cli.append(measured([py, "-m", "pipeline", "identify", str(path),
                                          "--input", "u", "--output", "y", "--time", "time",
-                                         "--method", "all", "--events", "all", "--json"]))
-            rows.append(summarise(n, n_events, path, bare, pipe, cli))
-    report(rows)
+                                         "--method", "all", "--events", "all", "--json"],
+                                        timeout=a.cli_timeout))
+            rows.append(summarise(n, n_events, path, bare, pipe, cli, a.cli_timeout))
+            report(rows[-1:], header=len(rows) == 1)
+    report_growth(rows)
 
 
 def _median(runs: list[dict], key: str) -> float:
     return statistics.median(r[key] for r in runs)
 
 
-def summarise(n, n_events, path, bare, pipe, cli) -> dict:
+def summarise(n, n_events, path, bare, pipe, cli, cli_timeout) -> dict:
     docs = [json.loads(r["out"]) for r in pipe]
     stages = {k: statistics.median(d["stages"][k]["cpu"] for d in docs)
               for k in docs[0]["stages"]}
@@ -186,14 +201,16 @@ def summarise(n, n_events, path, bare, pipe, cli) -> dict:
             "pipe_cpu": _median(pipe, "cpu"), "pipe_rss": _median(pipe, "rss"),
             "pipe_rss_net": statistics.median(r["rss"] - json.loads(r["out"])["rss_imports"]
                                               for r in pipe),
-            "raw": raw, "cli_cpu": _median(cli, "cpu") if cli else None,
-            "cli_rss": _median(cli, "rss") if cli else None,
+            "raw": raw, "cli_ran": bool(cli), "cli_timeout": cli_timeout,
+            "cli_cpu": _median(cli, "cpu") if cli and None not in cli else None,
+            "cli_rss": _median(cli, "rss") if cli and None not in cli else None,
             "graphical_fits": docs[0]["graphical_fits"], "found": docs[0]["events"]}
 
 
-def report(rows: list[dict]) -> None:
-    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
-          f"{platform.python_version()}")
+def report(rows: list[dict], header: bool = True) -> None:
+    if header:
+        print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+              f"{platform.python_version()}", flush=True)
     for r in rows:
         print(f"\n{r['n']:,} samples, {r['events']} events ({r['found']} found), "
               f"{r['file_mb']:.0f} MB CSV; bare read {r['bare_cpu']:.2f} s CPU "
@@ -209,6 +226,13 @@ def report(rows: list[dict]) -> None:
             print(f"  `pipeline identify --method all --events all`: {r['cli_cpu']:.2f} s CPU"
                   f" = {r['cli_cpu'] / r['bare_process_cpu']:.1f}x the bare read's process; "
                   f"peak {r['cli_rss'] / 1e6:.0f} MB")
+        elif r["cli_ran"]:
+            print(f"  `pipeline identify --method all --events all`: not finished in "
+                  f"{r['cli_timeout']:.0f} s (stopped)")
+        sys.stdout.flush()
+
+
+def report_growth(rows: list[dict]) -> None:
     for a, b in zip(rows, rows[1:], strict=False):
         grow = math.log(b["n"] / a["n"])
         parts = ", ".join(
