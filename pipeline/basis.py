@@ -39,6 +39,7 @@ import math
 import numpy as np
 from scipy import signal
 
+from .discretise import discrete_poles
 from .models import PARAMETERS, STRUCTURES, ProcessModel, Structure
 from .record import infer_sample_time
 from .simulation import simulate
@@ -154,16 +155,7 @@ def _pole_polynomial(spec: Structure, p: dict[str, float], dt: float) -> np.ndar
     if den is None or not 2 <= len(den) <= MAX_IIR_ORDER + 1 or not all(
             math.isfinite(c) for c in den):
         return None
-    if len(den) == 2:
-        return np.array([1.0, -math.exp(-den[1] / den[0] * dt)])
-    b, c = den[1] / den[0], den[2] / den[0]  # s^2 + b s + c
-    disc = b * b - 4 * c
-    if disc >= 0:
-        r = math.sqrt(disc)
-        z1, z2 = math.exp((-b + r) / 2 * dt), math.exp((-b - r) / 2 * dt)
-        return np.array([1.0, -(z1 + z2), z1 * z2])
-    mag = math.exp(-b / 2 * dt)  # complex pair exp((-b/2 +- i w) dt)
-    return np.array([1.0, -2 * mag * math.cos(math.sqrt(-disc) / 2 * dt), mag * mag])
+    return discrete_poles(den, dt)
 
 
 def basis_lags(spec: Structure, p: dict[str, float], n_max: int = 3) -> int:

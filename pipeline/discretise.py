@@ -142,7 +142,14 @@ def pole_polynomial(model: ProcessModel, dt: float) -> np.ndarray | None:
     if model.structure == "n_lags" and float(model.params["n"]) not in (1.0, 2.0):
         return None  # an expanded (Ts+1)^n is numerically useless (pipeline.simulation)
     den = _denominator(model)
-    if den is None or not 2 <= len(den) <= 3:
+    return None if den is None else discrete_poles(den, dt)
+
+
+def discrete_poles(den: list[float], dt: float) -> np.ndarray | None:
+    """``[1, a1 (, a2)]`` for a continuous denominator of degree 1 or 2 (descending powers
+    of s, no leading zero): the poles ``s_i`` map to ``exp(s_i dt)`` (zero-order hold),
+    real or a complex pair in closed form; None for another degree."""
+    if not 2 <= len(den) <= 3:
         return None
     if len(den) == 2:
         return np.array([1.0, -math.exp(-den[1] / den[0] * dt)])
