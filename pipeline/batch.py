@@ -101,11 +101,6 @@ def crashed(spec, exc: BaseException) -> RecordResult:
     return RecordResult(name=getattr(spec, "name", str(spec)), source=str(where), error=reason)
 
 
-def is_failure(result) -> bool:
-    """True for a failed record result."""
-    return not getattr(result, "ok", True)
-
-
 @contextmanager
 def limit_native_threads() -> Iterator[None]:
     """One BLAS/OpenMP thread while the block runs (threadpoolctl).

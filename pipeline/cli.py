@@ -64,6 +64,9 @@ def main(version: Annotated[bool, typer.Option(
         "--version", callback=_version, is_eager=True, help="print the version and exit")]
         = False) -> None:
     """Batch system identification from step and impulse tests."""
+    from .log import configure
+
+    configure()  # every command: library warnings only with run --verbose
 
 
 def stoppable(command):

@@ -6,6 +6,7 @@ Every problem is one :class:`~pipeline.errors.UserError` line naming the file, t
 
 from __future__ import annotations
 
+import hashlib
 import re
 from pathlib import Path
 from typing import Literal
@@ -74,11 +75,16 @@ def folder_name(label: str) -> str:
     ``name`` is a label (the report title, the JUnit suite), never a path: every run of
     characters other than letters, digits, ``-``, ``_`` and ``.`` becomes one ``_``,
     leading dots and underscores are dropped (no ``..``, no hidden folder), it is cut to
-    100 characters, and ``run`` stands for a name with nothing left:
-    ``../../../x`` -> ``x``, ``/srv/x`` -> ``srv_x``, ``Line 2 / oven`` -> ``Line_2_oven``.
+    100 characters, and ``run`` stands for a name with nothing left. A name that had to
+    change gets the first 8 hex digits of its SHA-256 (two nightly configs named ``a/b``
+    and ``a b`` must not overwrite each other's reports): ``thermal`` -> ``thermal``,
+    ``../../../x`` -> ``x-0274b718``, ``Line 2 / oven`` -> ``Line_2_oven-<8 hex>``.
     """
     safe = re.sub(r"[^\w.-]+", "_", label, flags=re.UNICODE).lstrip("._")[:100]
-    return safe.rstrip("._") or "run"
+    safe = safe.rstrip("._") or "run"
+    if safe == label:
+        return safe
+    return f"{safe}-{hashlib.sha256(label.encode('utf-8', 'surrogatepass')).hexdigest()[:8]}"
 
 
 class RunConfig(_Strict):

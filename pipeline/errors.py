@@ -6,7 +6,7 @@ file, the line or the config key, and what was expected.
 
 from enum import IntEnum
 
-from .quoting import shorten
+from .quoting import printable, shorten
 
 
 class ExitCode(IntEnum):
@@ -30,7 +30,10 @@ class UserError(Exception):
 
     def __init__(self, message: str) -> None:
         super().__init__(message)
-        self.message = shorten(" ".join(message.split()), self.MAX_LENGTH)  # one line
+        # line breaks and tabs folded (one line), every other control character written
+        # as an escape (a \x0b or \r in a file name is named as such, not as a space)
+        text = " ".join(printable(" ".join(message.split("\n")).replace("\t", " ")).split())
+        self.message = shorten(text, self.MAX_LENGTH)
 
 
 class NotApplicable(Exception):

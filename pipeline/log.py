@@ -11,6 +11,8 @@ from __future__ import annotations
 import logging
 from functools import cache
 
+from .quoting import printable
+
 #: --quiet, default, --verbose
 LEVELS = {"quiet": logging.ERROR, "normal": logging.WARNING, "verbose": logging.INFO}
 
@@ -40,11 +42,19 @@ def configure(verbosity: str = "normal") -> None:
         root.addHandler(handler)
         root.propagate = False
     handler.setLevel(LEVELS[verbosity])
+    # numpy's and scipy's RuntimeWarnings (an overflow inside a fit of extreme data, a
+    # badly conditioned filter) are not the user's error lines: --verbose shows them
+    logging.captureWarnings(True)
+    warned = logging.getLogger("py.warnings")
+    warned.propagate = False
+    if handler not in warned.handlers:
+        warned.addHandler(handler)
+    warned.setLevel(logging.WARNING if verbosity == "verbose" else logging.ERROR)
 
 
 class _ConsoleHandler(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         try:
-            console().print(f"pipeline: {record.getMessage()}", markup=False)
+            console().print(f"pipeline: {printable(record.getMessage())}", markup=False)
         except Exception:  # logging must never break a run
             self.handleError(record)

@@ -36,7 +36,8 @@ def show_progress(progress: bool | None) -> bool:
         return False
 
 
-def _is_failure(result) -> bool:
+def is_failure(result) -> bool:
+    """True for a failed record result."""
     return not getattr(result, "ok", True)
 
 
@@ -111,11 +112,11 @@ class Tracker(AbstractContextManager):
 
     def done(self, result, seconds: float | None = None) -> None:
         self.completed += 1
-        self.failures += int(_is_failure(result))
+        self.failures += int(is_failure(result))
         self._current = ""
         name = getattr(result, "name", "?")
         took = "" if seconds is None else f" in {seconds:.2f} s"
-        if _is_failure(result):
+        if is_failure(result):
             log.info("%s: failed%s (%d/%d)", name, took, self.completed, self.total)
         else:
             log.info("%s: done%s, %d event(s), %d fit(s) (%d/%d)", name, took,

@@ -102,6 +102,9 @@ def _regular_step(dt: np.ndarray, rel_tol: float = 1e-6) -> float | None:
 #: Values beyond this magnitude overflow a fit's squared errors (1e150 squared is 1e300,
 #: near float64's largest, 1.8e308), so a record refuses them: the signal is to be scaled.
 LARGEST_VALUE = 1e150
+#: An input or output no larger than this anywhere (but not all zero) underflows them
+#: (1e-150 squared is 1e-300, near float64's smallest normal, 2.2e-308): refused too.
+SMALLEST_VALUE = 1e-150
 
 
 def make_record(
@@ -124,7 +127,7 @@ def make_record(
     if t.size < 10:
         raise UserError(f"{source}: {t.size} samples; at least 10 are needed")
     for label, a in (("time", t), (input_name, u), (output_name, y)):
-        _check_values(a, label, source)
+        _check_values(a, label, source, signal=a is not t)
     if initial_input is not None and not np.isfinite(initial_input):
         raise UserError(f"{source}: initial_input is {initial_input}; expected a number")
     dt = np.diff(t) if intervals is None or intervals.size != t.size - 1 else intervals
@@ -152,10 +155,18 @@ def make_record(
     )
 
 
-def _check_values(a: np.ndarray, label: str, source: str) -> None:
-    """Every value finite and small enough for a fit's squared errors (LARGEST_VALUE)."""
-    if -LARGEST_VALUE <= a.min() and a.max() <= LARGEST_VALUE:
-        return  # two passes, no temporary arrays (NaN fails both comparisons)
+def _check_values(a: np.ndarray, label: str, source: str, signal: bool = True) -> None:
+    """Every value finite and small enough for a fit's squared errors (LARGEST_VALUE); a
+    ``signal`` (not the time) also not so tiny that they underflow (SMALLEST_VALUE)."""
+    lo, hi = a.min(), a.max()
+    if -LARGEST_VALUE <= lo and hi <= LARGEST_VALUE:  # two passes, no temporaries (NaN
+        peak = max(-lo, hi)  # fails both comparisons)
+        if signal and 0 < peak < SMALLEST_VALUE:
+            raise UserError(
+                f"{source}: column '{label}' is at most {peak:.3g} in magnitude; values below "
+                f"{SMALLEST_VALUE:.0e} underflow the squared errors of a fit: scale the "
+                "signal (e.g. a unit with a smaller prefix)")
+        return
     finite = np.isfinite(a)
     if not finite.all():
         raise UserError(

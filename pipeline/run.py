@@ -29,6 +29,7 @@ from .io import load_record
 from .io.options import check_file
 from .io.paths import files_named
 from .log import logger
+from .report.outdir import check_target
 from .results import RecordResult, RunResult
 from .segmentation import SegmentOptions
 
@@ -160,7 +161,7 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
     else to report).
     """
     if out_dir is not None:
-        check_writable(out_dir, "report folder", folder=True)
+        check_target(out_dir)
     record = load_record(path, data)
     res = analyse(record, options)
     if res.error:
@@ -211,7 +212,7 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     # the baseline and the history are read, the output files checked, before the batch:
     # a bad one costs no run
     target = out_dir or cfg.report_folder()  # name is a label: never a path
-    check_writable(target, "report folder", folder=True)
+    check_target(target)
     for path, what in ((junit, "JUnit file"), (history, "history")):
         if path is not None:
             check_writable(path, what)
@@ -266,16 +267,19 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
                   f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
                   html=cfg.report.html, plots_mode=cfg.report.plots,
                   mapper=stages.counting(mapper))
-    if history is not None:  # after the report: --history may point into the output folder
-        from .history import append_history
+    from .interrupt import deferred
 
-        stages.step("history")
-        append_history(history, doc, run_time)
-    if junit is not None:  # after the report, for the same reason
-        from .report.junit import write_junit
+    with deferred():  # a SIGTERM now waits for both: a report never lacks its history row
+        if history is not None:  # after the report: --history may point into the folder
+            from .history import append_history
 
-        stages.step("JUnit")
-        write_junit(junit, doc, comparison, time=time.perf_counter() - started)
+            stages.step("history")
+            append_history(history, doc, run_time)
+        if junit is not None:  # after the report, for the same reason
+            from .report.junit import write_junit
+
+            stages.step("JUnit")
+            write_junit(junit, doc, comparison, time=time.perf_counter() - started)
     n_ok = len(records) - len(run.failures)
     from .grade import record_verdict
 

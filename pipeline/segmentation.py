@@ -101,7 +101,9 @@ def input_threshold(u: np.ndarray, initial_input: float | None, opt: SegmentOpti
         lo, hi = min(lo, initial_input), max(hi, initial_input)
     rel = opt.rel_min_step * (hi - lo)
     floor = opt.min_step if opt.min_step is not None else rel
-    return max(floor, opt.input_noise_factor * sigma_u, 1e-12 * max(1.0, abs(hi))), sigma_u
+    # a relative floor only (a signal in femto-units has steps too)
+    return max(floor, opt.input_noise_factor * sigma_u,
+               1e-12 * max(abs(lo), abs(hi), np.finfo(float).tiny)), sigma_u
 
 
 def segment(record: Record, options: SegmentOptions | None = None) -> list[Event]:

@@ -330,3 +330,12 @@ def test_consistency_figures_draw_units_with_dollars_and_tex():
     # tight_layout drew the labels as mathtext before: ValueError
     assert consistency_figure(est, units, dpi=40)[:4] == b"\x89PNG"
     assert static_map_figure(smap, units, dpi=40)[:4] == b"\x89PNG"
+
+
+def test_a_user_error_names_control_characters_as_escapes():
+    """A \\x0b or \\r in a file name is written as an escape, not folded into a space
+    (the line must name the file that exists); line breaks and tabs fold to one line."""
+    from pipeline.errors import UserError
+
+    msg = UserError("cannot read\n/data/ctl\x01\x0b\r.csv:\tbad").message
+    assert msg == "cannot read /data/ctl\\x01\\x0b\\x0d.csv: bad"

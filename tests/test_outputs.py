@@ -8,6 +8,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -152,6 +153,21 @@ def test_stale_staging_of_a_dead_run_is_removed(tmp_path, run):
     assert not dead.exists() and live.is_dir() and other.is_dir()
 
 
+def test_stale_staging_of_another_host_goes_by_its_age(tmp_path, run):
+    """A CI container of a random host name on a shared mount: its killed run's staging is
+    judged by age (a staging folder lives for seconds), a fresh one is left alone."""
+    out = tmp_path / "out"
+    old = out / f"{outdir.STAGING}ci-runner-7f3a-4242-abcd_123"
+    fresh = out / f"{outdir.STAGING}ci-runner-9b1c-4343-abcd_123"
+    for d in (old, fresh):
+        (d / "plots").mkdir(parents=True)
+        (d / "report.html").write_text("<html>half")
+    hours_ago = time.time() - 2 * outdir.STALE_AGE
+    os.utime(old, (hours_ago, hours_ago))
+    _write(out, run, plots_mode="none")
+    assert not old.exists() and fresh.is_dir()
+
+
 def test_staging_names_its_host_and_pid(tmp_path, run, monkeypatch):
     seen = []
     real = outdir.tempfile.mkdtemp
@@ -176,11 +192,22 @@ def test_staging_names_its_host_and_pid(tmp_path, run, monkeypatch):
     ("a\nb\x1b[31m", "a_b_31m"), ("Kühlung", "Kühlung"), ("x" * 300, "x" * 100),
 ])
 def test_folder_name(name, folder):
-    assert folder_name(name) == folder
+    got = folder_name(name)
+    if folder == name:  # a safe name is its own folder
+        assert got == folder
+    else:  # a changed one carries 8 hex digits of the name's hash
+        assert got.startswith(folder + "-") and len(got) == len(folder) + 9
+        assert all(c in "0123456789abcdef" for c in got[-8:])
 
 
-@pytest.mark.parametrize("name,folder", [("../../../esc", "esc"), ("/tmp/h13-abs-name",
-                                                                     "tmp_h13-abs-name")])
+def test_different_names_never_share_a_folder():
+    names = ["a/b", "a b", "a_b", "..", "...", "", "run", "/srv/x", "srv_x", "x" * 300,
+             "x" * 301]
+    assert len({folder_name(n) for n in names}) == len(names)
+
+
+@pytest.mark.parametrize("name,folder", [("../../../esc", folder_name("../../../esc")),
+                                         ("/tmp/h13-abs-name", folder_name("/tmp/h13-abs-name"))])
 def test_name_never_writes_outside_reports(tmp_path, monkeypatch, name, folder):
     work = tmp_path / "a" / "b" / "c"
     work.mkdir(parents=True)

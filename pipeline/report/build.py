@@ -13,14 +13,13 @@ from pathlib import Path
 from jinja2 import Environment, PackageLoader, select_autoescape
 
 from ..errors import UserError
-from ..files import check_writable
 from ..findings import Comparison
 from ..grade import FLAGS
 from ..interrupt import deferred
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
 from .markdown import finalize, finalize_html, md_code, md_text
-from .outdir import publish
+from .outdir import check_target, publish
 from .regressions import mark_summary, regression_section
 from .sections import FOLD_ROWS, collector, record_section, slug
 from .tables import record_verdict, summary_table
@@ -113,7 +112,7 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
     plots) is kept. A failure is one :class:`UserError` line.
     """
     out_dir = Path(out_dir).resolve()
-    check_writable(out_dir, "report folder", folder=True)
+    check_target(out_dir)
     md, page, files = render(run, doc, title=title, extras=extras, plots_mode=plots_mode,
                              mapper=mapper)
     outputs = {"results.json": results_json(doc).encode("utf-8")}

@@ -164,7 +164,7 @@ def trend_png(frame: pl.DataFrame, title: str, column: str, what: str, *, dpi: i
     ax.axhline(1.0, color="0.5", linewidth=0.8, linestyle="--")
     for (name,), part in frame.group_by("record", maintain_order=True):
         ax.plot(part.get_column("time").to_list(), part.get_column("ratio").to_list(),
-                marker="o", markersize=3, linewidth=1.2, label=str(name).replace("$", r"\$"))
+                marker="o", markersize=3, linewidth=1.2, label=str(name))
     values = frame.get_column("ratio")
     if column == MSE and values.min() > 0 and values.max() > 100 * values.min():
         ax.set_yscale("log")
@@ -173,9 +173,9 @@ def trend_png(frame: pl.DataFrame, title: str, column: str, what: str, *, dpi: i
     ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
     ax.set_xlabel("run time (UTC)")
     ax.set_ylabel(f"recommended model, 1 = {what}")
-    ax.set_title(title.replace("$", r"\$"))
+    ax.set_title(title)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small", loc="best")
+    ax.legend(fontsize="small", loc="upper left")  # fixed: no search over the points
     literal_text(fig)  # record names are text, not mathtext
     buf = BytesIO()
     fig.savefig(buf, format="png")

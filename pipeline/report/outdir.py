@@ -22,9 +22,10 @@ import re
 import shutil
 import socket
 import tempfile
+import time
 from pathlib import Path
 
-from ..files import default_mode
+from ..files import check_writable, default_mode
 
 #: The fixed names a run writes; one the run does not write this time (report.md with
 #: ``markdown: false``) is removed, so the folder never mixes two runs.
@@ -55,15 +56,35 @@ def _alive(pid: int) -> bool:
     return True
 
 
+#: A staging folder lives for the seconds its files take to write; one of another host
+#: (a CI container of a random name on a shared mount) older than this is a killed run's.
+STALE_AGE = 3600.0
+
+
+def check_target(out_dir: Path) -> None:
+    """The report folder and its ``plots/`` can be written (before a batch: a file in the
+    way costs no run); a problem is one :class:`~pipeline.errors.UserError` line."""
+    check_writable(out_dir, "report folder", folder=True)
+    check_writable(Path(out_dir) / "plots", "report's plots folder", folder=True)
+
+
 def remove_stale(out_dir: Path) -> list[Path]:
-    """Remove the staging folders in ``out_dir`` that runs on this host left behind when
-    they were killed (their process is gone); returns what was removed."""
+    """Remove the staging folders in ``out_dir`` that killed runs left behind: on this
+    host those whose process is gone, of another host those older than
+    :data:`STALE_AGE`; returns what was removed."""
     removed = []
     host = host_tag()
+    now = time.time()
     for entry in out_dir.iterdir():
         m = _STALE.fullmatch(entry.name)
-        if (m and m["host"] == host and not _alive(int(m["pid"])) and entry.is_dir()
-                and not entry.is_symlink()):
+        if not m:
+            continue
+        try:
+            old = now - entry.lstat().st_mtime > STALE_AGE
+        except OSError:
+            continue
+        dead = not _alive(int(m["pid"])) if m["host"] == host else old
+        if dead and entry.is_dir() and not entry.is_symlink():
             shutil.rmtree(entry, ignore_errors=True)
             removed.append(entry)
     return removed

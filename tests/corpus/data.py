@@ -21,6 +21,14 @@ def _rows(text: str) -> list[list[str]]:
     return [line.split(",") for line in text.splitlines()[1:]]
 
 
+def _scaled(factor: float) -> str:
+    """step_csv() with u and y multiplied by ``factor`` (the same plant in other units)."""
+    rows = _rows(step_csv())
+    lines = ["time,u,y"] + [f"{t},{float(u) * factor!r},{float(y) * factor!r}"
+                            for t, u, y in rows]
+    return "\n".join(lines) + "\n"
+
+
 def _with_y(at: int, value: str) -> str:
     """step_csv() with the output of data row ``at`` replaced."""
     rows = _rows(step_csv())
@@ -69,6 +77,15 @@ HUGE_HEADER = "time,u,y," + "x" * 200_000 + "\n" + "".join(
     line + ",0\n" for line in GOOD.splitlines()[1:])
 
 CASES = [
+    # extreme magnitudes: femto-units identify like any others; below 1e-150 the squared
+    # errors underflow (a K = 0 fit with MSE 0 would look perfect): refused in one line
+    Hostile("data_femto_units_identify", (*IDENTIFY, "--out", "res"), 0,
+            files={"log.csv": _scaled(1e-100)}, max_lines=0, check=_json_gain(2.0)),
+    Hostile("data_values_underflow_refused", IDENTIFY, 2, files={"log.csv": _scaled(1e-300)},
+            stderr=("log.csv", "column 'u'", "underflow", "scale the signal")),
+    Hostile("data_1e50_units_identify_quietly", (*IDENTIFY, "--out", "res"), 0,
+            files={"log.csv": _scaled(1e50)}, max_lines=0, check=_json_gain(2.0)),
+
     _glob_row("data_glob_brackets_name_is_literal", "run[1].csv", "run1.csv"),
     _glob_row("data_glob_star_name_is_literal", "a*.csv", "ab.csv"),
     _glob_row("data_glob_question_name_is_literal", "r?n.csv", "run.csv"),

@@ -36,6 +36,13 @@ def safe_report(out: str = "out", n_tables: int = 1, junit: str | None = None):
 
 
 CASES = [
+    # --verbose names each record's file: its escape sequences are inert there too
+    Hostile("verbose_lines_escape_file_names", ("run", "c.yaml", "--out", "out", "-v",
+                                                "--workers", "1"), 0,
+            files={"c.yaml": "name: v\ndata:\n  path: '*.csv'\n  input: u\n  output: y\n"
+                             "  time: time\nmethods: [first_order]\nreport: {plots: none}\n",
+                   "\x1b]0;pwn\x07\x1b[31mred.csv": GOOD}, max_lines=30),
+
     Hostile("yaml_alias_bomb_in_name", ("run", "c.yaml"), 2,
             files={"c.yaml": alias_bomb("name") + DATA, "log.csv": GOOD},
             stderr=("c.yaml", "aliases"), keep=("c.yaml",)),

@@ -8,6 +8,7 @@ import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from pipeline.config import folder_name
 from pipeline.report.outdir import STAGING, host_tag
 from tests.corpus import Hostile, config, step_csv
 
@@ -64,6 +65,12 @@ def _stale_gone(d: Path) -> None:
 
 
 CASES = [
+    # a file named plots in the way: one line before the batch, nothing written
+    Hostile("out_plots_is_a_file", ("run", "c.yaml", "--out", "out"), 2,
+            files={"c.yaml": GOOD, "log.csv": LOG, "out/plots": "mine"}, keep=("out/plots",),
+            stderr=("plots", "is a file"), check=lambda d: not (d / "out" / "results.json").exists()
+            or (_ for _ in ()).throw(AssertionError("results.json written"))),
+
     # item 2: only the run's own outputs are replaced
     Hostile("out_keeps_user_plot", ("run", "c.yaml", "--out", "out", "--workers", "1"), 0,
             files={"c.yaml": GOOD, "log.csv": LOG, **USER}, keep=tuple(USER),
@@ -84,16 +91,16 @@ CASES = [
     Hostile("name_dotdot_stays_in_reports", ("run", "c.yaml", "--workers", "1"), 0,
             files={"c.yaml": NOPLOTS.replace("name: hostile", "name: ../../escaped-by-name"),
                    "log.csv": LOG},
-            check=_under_reports("escaped-by-name", "../../escaped-by-name")),
+            check=_under_reports(folder_name("../../escaped-by-name"), "../../escaped-by-name")),
     Hostile("name_absolute_stays_in_reports", ("run", "c.yaml", "--workers", "1"), 0,
             files={"c.yaml": NOPLOTS.replace("name: hostile",
                                           "name: /tmp/pipeline-corpus-absolute-name"),
                    "log.csv": LOG},
-            check=_under_reports("tmp_pipeline-corpus-absolute-name",
+            check=_under_reports(folder_name("/tmp/pipeline-corpus-absolute-name"),
                                  "/tmp/pipeline-corpus-absolute-name")),
     Hostile("name_with_slashes_and_spaces", ("run", "c.yaml", "--workers", "1"), 0,
             files={"c.yaml": NOPLOTS.replace("name: hostile", "name: 'Line 2 / oven'"),
-                   "log.csv": LOG}, check=_under_reports("Line_2_oven")),
+                   "log.csv": LOG}, check=_under_reports(folder_name("Line 2 / oven"))),
     # item 9: a killed run's staging folder is removed by the next run
     Hostile("stale_staging_removed", ("run", "c.yaml", "--out", "out", "--workers", "1"), 0,
             files={"c.yaml": NOPLOTS, "log.csv": LOG, f"{STALE}/report.html": "<html>half",
