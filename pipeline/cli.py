@@ -82,8 +82,9 @@ def stoppable(command):
             try:
                 return command(*args, **kwargs)
             except Interrupted as exc:
-                err.print(f"interrupted by {exc.name}: stopped, workers ended; no partial "
-                          "report left (an earlier one is kept)", markup=False)
+                err.print(f"interrupted by {exc.name}: stopped, workers ended; nothing "
+                          "half-written (the previous report kept, or the new one complete "
+                          "when the signal came while it was put in place)", markup=False)
                 raise typer.Exit(exc.exit_code) from None
 
     return wrapper

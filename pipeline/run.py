@@ -262,24 +262,23 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     # nothing to draw: the sections are tables, built here; else the batch's pool draws
     draws = pool if cfg.report.plots != "none" else None
     stages.step("report sections", total=len(records))
-    with parallel_map(draws, len(records)) as mapper:
-        write_run(target, run, doc, title=cfg.report.title or f"System identification: "
-                  f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
-                  html=cfg.report.html, plots_mode=cfg.report.plots,
-                  mapper=stages.counting(mapper))
-    from .interrupt import deferred
-
-    with deferred():  # a SIGTERM now waits for both: a report never lacks its history row
-        if history is not None:  # after the report: --history may point into the folder
+    def finish() -> None:  # after the report: --history/--junit may point into the folder
+        if history is not None:
             from .history import append_history
 
             stages.step("history")
             append_history(history, doc, run_time)
-        if junit is not None:  # after the report, for the same reason
+        if junit is not None:
             from .report.junit import write_junit
 
             stages.step("JUnit")
             write_junit(junit, doc, comparison, time=time.perf_counter() - started)
+
+    with parallel_map(draws, len(records)) as mapper:
+        write_run(target, run, doc, title=cfg.report.title or f"System identification: "
+                  f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
+                  html=cfg.report.html, plots_mode=cfg.report.plots,
+                  mapper=stages.counting(mapper), then=finish)
     n_ok = len(records) - len(run.failures)
     from .grade import record_verdict
 

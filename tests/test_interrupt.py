@@ -93,7 +93,11 @@ def test_sigterm_at_random_points_leaves_nothing_behind(nightly):
         elif proc.returncode == 128 + signal.SIGTERM:
             interrupted += 1
             assert "interrupted by SIGTERM" in err and "Traceback" not in err, err
-            assert snapshot(out) == before, f"delay {delay:.2f} s: the report changed"
+            after = snapshot(out)
+            if after != before:  # the signal came while the new report was put in place:
+                assert after.keys() == before.keys(), f"delay {delay:.2f} s"  # all of it
+                assert len(json.loads(after["results.json"])["records"]) == 6
+                before = after
         else:  # the run had finished: a complete new report
             assert proc.returncode == 0, (delay, proc.returncode, err)
             assert b"6 of 6 record(s)" in stdout

@@ -7,6 +7,7 @@ never leaves a half-written report, the user's files are kept).
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -103,8 +104,11 @@ def _environment(kind: str) -> Environment:
 
 def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
               extras: Extras | None = None, markdown: bool = True, html: bool = True,
-              plots_mode: str = "auto", mapper=map) -> Path:
-    """Write results.json, report.md (+ plots/) and report.html into ``out_dir``.
+              plots_mode: str = "auto", mapper=map,
+              then: Callable[[], None] | None = None) -> Path:
+    """Write results.json, report.md (+ plots/) and report.html into ``out_dir``; then
+    ``then()`` (the run's history row and JUnit file) under the same hold of SIGTERM and
+    SIGINT, so an interrupted run leaves the previous outputs or all the new ones.
 
     The folder is created if need be; in an existing one only the run's own outputs are
     replaced (:mod:`pipeline.report.outdir`: staged inside the folder, then replaced file
@@ -124,6 +128,8 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
     try:
         with deferred():  # SIGTERM waits for the writes and renames: never half a report
             publish(out_dir, outputs)
+            if then is not None:
+                then()
     except OSError as exc:
         raise UserError(f"{out_dir}: cannot write the report ({exc.strerror or exc})") from None
     return out_dir
