@@ -116,7 +116,8 @@ def run(
     quiet: Annotated[bool, typer.Option(
         "--quiet", "-q", help="errors only on stderr (no progress bar)")] = False,
     verbose: Annotated[bool, typer.Option(
-        "--verbose", "-v", help="each record's stages and time, each report step, on stderr")]
+        "--verbose", "-v", help="each record's time (its stages when it runs in this "
+                                "process), each report step, library warnings, on stderr")]
     = False,
 ) -> None:
     """Identify and validate every record a config names; write results.json and reports.
