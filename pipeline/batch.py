@@ -43,7 +43,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from .errors import UserError
-from .interrupt import guard_worker, output_detached
+from .interrupt import guard_worker, interruption, output_detached
 from .progress import Tracker, show_progress
 from .results import RecordResult
 
@@ -140,6 +140,9 @@ def _run_inline(specs: list, cfg, job: Job, tracker: Tracker) -> list:
             try:
                 result = job(spec, cfg)
             except Exception as exc:  # the job's contract is broken; keep the batch going
+                stop = interruption(exc)  # a signal that came wrapped: not the record's
+                if stop is not None:
+                    raise stop from None
                 result = crashed(spec, exc)
             tracker.done(result, time.perf_counter() - t0)
             out.append(result)

@@ -76,12 +76,15 @@ def stoppable(command):
 
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
-        from .interrupt import Interrupted, handle_signals
+        from .interrupt import handle_signals, interruption
 
         with handle_signals():
             try:
                 return command(*args, **kwargs)
-            except Interrupted as exc:
+            except BaseException as caught:
+                exc = interruption(caught)  # also when it came wrapped (in an import)
+                if exc is None:
+                    raise
                 err.print(f"interrupted by {exc.name}: stopped, workers ended; nothing "
                           "half-written (the previous report kept, or the new one complete "
                           "when the signal came while it was put in place)", markup=False)

@@ -78,6 +78,19 @@ def handle_signals() -> Iterator[None]:
             signal.signal(s, h)
 
 
+def interruption(exc: BaseException | None) -> Interrupted | None:
+    """The :class:`Interrupted` behind ``exc``, if any: a signal that arrives inside an
+    import or a descriptor's ``__set_name__`` reaches us wrapped (``RuntimeError: Error
+    calling __set_name__ ...``), with the Interrupted as its cause or context."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, Interrupted):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
 @contextlib.contextmanager
 def deferred() -> Iterator[None]:
     """Hold SIGTERM/SIGINT (when :func:`handle_signals` is active) until the block ends,

@@ -119,3 +119,29 @@ def test_sigkill_takes_the_workers_with_it(nightly):
     proc.kill()
     proc.communicate(timeout=30)  # the pipes close: no helper holds them
     assert wait_gone(proc.pid) == []
+
+
+def test_a_signal_that_arrives_wrapped_still_stops_cleanly():
+    """A SIGTERM inside an import reaches us as ``RuntimeError: Error calling __set_name__``
+    with the Interrupted as its context (seen in CI): still exit 143 with one line."""
+    import typer
+
+    from pipeline.cli import stoppable
+    from pipeline.interrupt import Interrupted, interruption
+
+    def wrapped():
+        try:
+            raise Interrupted(signal.SIGTERM)
+        except Interrupted:
+            raise RuntimeError("Error calling __set_name__ on 'cached_property'") from None
+
+    try:
+        wrapped()
+    except RuntimeError as exc:
+        assert interruption(exc) is not None and interruption(exc).signum == signal.SIGTERM
+        assert interruption(ValueError("x")) is None
+    with pytest.raises(typer.Exit) as stop:
+        stoppable(wrapped)()
+    assert stop.value.exit_code == 128 + signal.SIGTERM
+    with pytest.raises(ValueError):  # anything else is not ours to swallow
+        stoppable(lambda: (_ for _ in ()).throw(ValueError("x")))()
