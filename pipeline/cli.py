@@ -82,8 +82,7 @@ def stoppable(command):
             try:
                 return command(*args, **kwargs)
             except BaseException as caught:
-                exc = interruption(caught)  # also when it came wrapped (in an import)
-                if exc is None:
+                if (exc := interruption(caught)) is None:  # it may come wrapped (an import)
                     raise
                 err.print(f"interrupted by {exc.name}: stopped, workers ended; nothing "
                           "half-written (the previous report kept, or the new one complete "
