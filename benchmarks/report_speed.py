@@ -20,9 +20,10 @@ import platform
 import statistics
 import subprocess
 import sys
-import tarfile
 import tempfile
 from pathlib import Path
+
+from end_to_end import export  # the base commit's tree (this folder is on sys.path)
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -48,15 +49,6 @@ t = time.perf_counter()
 md, html, files = render(run, doc, title="bench", plots_mode="full")
 print(time.perf_counter() - t, len(files), rec.n_samples)
 """
-
-
-def export(ref: str, into: Path) -> Path:
-    """The tree of ``ref`` unpacked into ``into``."""
-    archive = into / "base.tar"
-    subprocess.run(["git", "-C", str(ROOT), "archive", "-o", str(archive), ref], check=True)
-    with tarfile.open(archive) as tar:
-        tar.extractall(into / "tree", filter="data")
-    return into / "tree"
 
 
 def timed_render(tree: Path, samples: int) -> tuple[float, int]:
