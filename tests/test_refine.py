@@ -207,7 +207,7 @@ def test_one_model_over_all_events_with_cross_validation():
     joint = next(f for f in res.fits if f.method == "lsq_first_order" and f.events)
     assert joint.events == (0, 1, 2, 3, 4) and joint.event == 0
     assert joint.model.params == pytest.approx({"K": 2.0, "T": 5.0, "delay": 1.0}, rel=0.02)
-    assert [f["event"] for f in joint.diagnostics["folds"]] == [0, 1, 2, 3, 4]
+    assert [f["events"] for f in joint.diagnostics["folds"]] == [[0], [1], [2], [3], [4]]
     assert joint.metrics["mse_cross_validation"] == pytest.approx(0.03**2, rel=0.25)
     per_event = [f for f in res.fits if f.method == "lsq_first_order" and not f.events]
     assert all("mse_cross_validation" in f.metrics for f in per_event)
@@ -272,3 +272,33 @@ def test_bootstrap_intervals_are_an_option():
         lo, hi = ref.ci95[k]
         assert lo < ref.model.params[k] < hi and hi - lo < 0.2 * v, k
     assert math.isfinite(ref.mse) and ref.mse == pytest.approx(0.06**2, rel=0.25)
+
+
+def test_folds_are_single_events_up_to_the_cap_then_interleaved():
+    from pipeline.joint import MAX_FOLDS, folds_of
+    assert folds_of([0, 2, 5]) == [[0], [2], [5]]
+    assert folds_of(range(MAX_FOLDS)) == [[i] for i in range(MAX_FOLDS)]
+    many = folds_of(range(23))
+    assert len(many) == MAX_FOLDS and many[0] == [0, 10, 20] and many[9] == [9, 19]
+    assert sorted(j for f in many for j in f) == list(range(23))  # each held out once
+
+
+def test_cross_validation_beyond_the_fold_cap_holds_every_event_out_once():
+    """Twelve steps of one plant: ten folds (not twelve refits), every event held out in
+    exactly one of them, and the pooled held-out error is the noise's variance."""
+    model = ProcessModel("first_order", {"K": 2.0, "T": 5.0, "delay": 1.0})
+    t = np.arange(0, 26 * 30.0 + 30, 0.25)
+    levels = [3.0, 1.5, 2.5, 1.0, 2.0, 3.5, 1.2, 2.8, 1.8, 3.2, 1.4, 2.6]
+    u = staircase(t, 2.0, [(20.0 + 30.0 * k, v) for k, v in enumerate(levels)])
+    noise = 0.03
+    y = simulate(model, t, u, 2.0, 5.0) + np.random.default_rng(4).normal(0, noise, t.size)
+    keep = t < 20.0 + 30.0 * len(levels)
+    rec = make_record(t[keep], u[keep], y[keep], name="stairs12", source="<stairs12>")
+    res = analyse(rec, AnalysisOptions(events="all", methods=("lsq_first_order",)))
+    assert len(res.events) == 12
+    joint = next(f for f in res.fits if f.events)
+    folds = joint.diagnostics["folds"]
+    assert len(folds) == 10 and sorted(j for f in folds for j in f["events"]) == list(range(12))
+    assert joint.model.params == pytest.approx({"K": 2.0, "T": 5.0, "delay": 1.0}, rel=0.02)
+    assert joint.metrics["mse_cross_validation"] == pytest.approx(noise**2, rel=0.25)
+    assert res.recommended is not None

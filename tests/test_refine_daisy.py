@@ -68,7 +68,7 @@ def test_one_model_over_all_six_steps(thermal):
           f"(leave one event out) {joint.metrics['mse_cross_validation']:.2f}, noise "
           f"variance {noise:.3f}")
     print("  folds (left out, K, its MSE):",
-          [(d["event"], round(d["params"]["K"], 2), round(d["mse"], 1)) for d in folds])
+          [(d["events"], round(d["params"]["K"], 2), round(d["mse"], 1)) for d in folds])
     print("  per-event K:", [round(k, 2) for k in gains],
           "states:", [f.diagnostics["initial_state"] for f in per_event])
     print(f"  recommended: {_show(res.recommended)}; {res.recommendation.reason}")
@@ -76,4 +76,4 @@ def test_one_model_over_all_six_steps(thermal):
                                                                               "delay"}
     assert gains[0] > 19 and min(gains) < 15.5  # the gain falls with the operating point
     assert joint.metrics["mse_cross_validation"] > 100 * noise  # the misfit shows
-    assert [d["event"] for d in folds] == list(range(6))
+    assert [d["events"] for d in folds] == [[i] for i in range(6)]

@@ -139,3 +139,16 @@ def test_interval_coverage_ar1_noise():
     cov, f = _coverage(0.8)
     print(f"\nAR(1) phi 0.8: coverage {cov}, median variance factor {f:.2f} (true 9)")
     assert all(c >= 0.85 for c in cov.values())
+
+
+@pytest.mark.parametrize("a", [0.0, 0.5, 0.9, 0.99])
+def test_variance_factor_by_direct_products_is_the_fft_one(a, monkeypatch):
+    """Long residuals take their leading autocorrelations as direct products (the FFT
+    only when the initial positive sequence has not ended by then): the same factor,
+    to rounding, white or coloured, and the known AR(1) value (1 + a) / (1 - a)."""
+    from pipeline import uncertainty
+    e = lfilter([1.0], [1.0, -a], np.random.default_rng(3).normal(size=50_000))
+    direct = uncertainty.variance_factor(e)
+    monkeypatch.setattr(uncertainty, "DIRECT_FROM", 10**12)
+    assert uncertainty.variance_factor(e) == pytest.approx(direct, rel=1e-12)
+    assert direct == pytest.approx((1 + a) / (1 - a), rel=0.12 if a < 0.95 else 0.3)
