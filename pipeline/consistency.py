@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from . import superposition
 from .discretise import memory
 from .events import Event, EventData
 from .fit import Fit, Flag
@@ -38,7 +39,8 @@ from .models import PARAMETERS, STRUCTURES, ProcessModel
 from .record import Record
 from .refine import MIN_DOF, RefineOptions
 from .simulation import simulate
-from .uncertainty import covariance, t_quantile, variance_factor
+from .superposition import Column
+from .uncertainty import residual_variance, t_quantile, variance_factor
 
 #: The extreme per-event gains must differ by more than this share of their mean.
 GAIN_SPREAD = 0.10
@@ -168,7 +170,8 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
     Every step keeps its own gain while its response goes on under the later ones, which
     is exact for a static nonlinearity before linear dynamics (a Hammerstein plant: a
     lamp's power ~ u^2 heating a plate). Intervals from the residuals with their
-    coloured-noise factor (:func:`pipeline.uncertainty.covariance`)."""
+    coloured-noise factor (:func:`pipeline.uncertainty.covariance`); solved without
+    the dense samples x events matrix by :mod:`pipeline.superposition`."""
     t, u, y = record.t, record.u, record.y
     unit = ProcessModel(shape.structure, {**shape.params, "K": 1.0})
     starts = [e.i_start for e in events] + [t.size]
@@ -186,80 +189,22 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
         d = np.empty(stop - a)
         d[: b - a] = u[a:b] - before
         d[b - a:] = d[b - a - 1] if b > a else 0.0
-        cols.append(_Column(a, stop, simulate(unit, t[a:stop], d, 0.0, 0.0, dt=dt)
-                            if stop > a else np.empty(0), float(d[-1]) if d.size else 0.0))
+        cols.append(Column(a, stop, simulate(unit, t[a:stop], d, 0.0, 0.0, dt=dt)
+                           if stop > a else np.empty(0), float(d[-1]) if d.size else 0.0))
     delta = [c.delta for c in cols]
-    jac, coef, e = _structured_lstsq(cols, y)
+    sol = superposition.solve(cols, y)
+    coef, e, p = sol.coef, sol.residuals, len(cols) + 1
     f = variance_factor(e)
-    cov = covariance(jac, e, jac.shape[1], f)
-    q = t_quantile(max(t.size / f - jac.shape[1], MIN_DOF))
+    var = residual_variance(e, p, f) * f * sol.unscaled
+    q = t_quantile(max(t.size / f - p, MIN_DOF))
     out, level = {}, float(coef[0])
     for j, ev in enumerate(events):
-        K, se = float(coef[j + 1]), float(math.sqrt(max(cov[j + 1, j + 1], 0.0)))
+        K, se = float(coef[j + 1]), float(math.sqrt(max(var[j + 1], 0.0)))
         after = level + K * delta[j]
         if ev.kind == "step" and delta[j] != 0:
             out[ev.index] = (K, se, (K - q * se, K + q * se), level, after)
         level = after
     return out
-
-
-@dataclass(frozen=True)
-class _Column:
-    """A regressor of :func:`step_gains`: 0 before ``start``, ``values`` on
-    ``[start, stop)``, ``delta`` from ``stop`` to the end of the record."""
-
-    start: int
-    stop: int
-    values: np.ndarray
-    delta: float
-
-
-def _structured_lstsq(cols: list[_Column], y: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least squares of ``y`` on ``[1, cols...]`` without the dense ``n x (events + 1)``
-    matrix: ``(R, coefficients, residuals)`` with ``R^T R = X^T X``.
-
-    Between consecutive column boundaries a row of X is a constant vector plus the few
-    columns still moving there, ``X_seg = Z_seg P_seg`` with ``Z_seg = [1, moving]``. A
-    QR of each ``Z_seg = Q R_z`` turns the problem into the small stacked one
-    ``[R_z P_seg] c = [Q^T y_seg]``, which has the same solution, singular values and
-    ``R^T R`` (an orthogonal change of rows: Golub & Van Loan, Matrix Computations, 4th
-    ed., sec. 5.3). Cost O(samples x moving columns + events^3) and memory O(samples),
-    where the dense solve was O(samples x events^2) time and samples x events memory
-    (1.6 GB at 1 M samples and 200 events)."""
-    n, p = y.size, len(cols) + 1
-    cuts = sorted({0, n, *(c.start for c in cols), *(c.stop for c in cols)})
-    blocks, rhs, segs = [], [], []
-    for s0, s1 in zip(cuts[:-1], cuts[1:], strict=True):
-        if s1 <= s0:
-            continue
-        const = np.zeros(p)
-        const[0] = 1.0
-        moving = []
-        for j, c in enumerate(cols):
-            if c.stop <= s0:
-                const[j + 1] = c.delta
-            elif c.start <= s0 and s1 <= c.stop:
-                moving.append(j)
-        Z = np.empty((s1 - s0, 1 + len(moving)))
-        Z[:, 0] = 1.0
-        for k, j in enumerate(moving):
-            c = cols[j]
-            Z[:, k + 1] = c.values[s0 - c.start: s1 - c.start]
-        Q, R = np.linalg.qr(Z)
-        P = np.zeros((1 + len(moving), p))
-        P[0] = const
-        for k, j in enumerate(moving):
-            P[k + 1, j + 1] = 1.0
-        blocks.append(R @ P)
-        rhs.append(Q.T @ y[s0:s1])
-        segs.append((s0, s1, Z, P))
-    M, r = np.vstack(blocks), np.concatenate(rhs)
-    coef, *_ = np.linalg.lstsq(M, r, rcond=None)
-    e = np.empty(n)
-    for s0, s1, Z, P in segs:
-        e[s0:s1] = y[s0:s1] - Z @ (P @ coef)
-    return M, coef, e
 
 
 def gain_flags(estimates: list[EventEstimate], unit: str = "") -> list[Flag]:

@@ -101,6 +101,13 @@ def t_quantile(dof: float, level: float = 0.95) -> float:
     return float(stats.t.ppf(0.5 + level / 2, max(dof, 1.0)))
 
 
+def residual_variance(resid: np.ndarray, n_params: int, factor: float) -> float:
+    """``s^2 = |e|^2 / (n - f n_params)``, at least ``n / 2`` in the divisor (see
+    :func:`covariance`)."""
+    n = resid.size
+    return float(resid @ resid) / max(n - factor * n_params, n / 2, 1)
+
+
 def covariance(jac: np.ndarray, resid: np.ndarray, n_params: int, factor: float
                ) -> np.ndarray:
     """``s^2 f (J^T J)^+`` with ``s^2 = |e|^2 / (n - f n_params)`` (pseudo-inverse: a
@@ -111,8 +118,7 @@ def covariance(jac: np.ndarray, resid: np.ndarray, n_params: int, factor: float
     ``n - f n_params`` for regressors slower than the noise (``n - n_params`` when white),
     so the residual variance is corrected by those degrees of freedom (at least n / 2:
     beyond that the residuals are a misfit, not noise)."""
-    n = resid.size
-    s2 = float(resid @ resid) / max(n - factor * n_params, n / 2, 1)
+    s2 = residual_variance(resid, n_params, factor)
     jtj = jac.T @ jac
     scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
     inv = np.linalg.pinv(jtj / np.outer(scale, scale), rcond=1e-12) / np.outer(scale, scale)

@@ -6,7 +6,7 @@ same results."""
 import numpy as np
 import pytest
 
-from pipeline import consistency, validate
+from pipeline import consistency, superposition, validate
 from pipeline.discretise import memory
 from pipeline.models import ProcessModel
 from pipeline.segmentation import SegmentOptions, segment
@@ -98,26 +98,49 @@ def _dense_step_gains(rec, events, shape):
     return coef, np.sqrt(np.diag(cov)), e
 
 
+@pytest.mark.parametrize("sparse", [False, True], ids=["compressed", "kkt"])
 @pytest.mark.parametrize("model", MODELS[:3], ids=lambda m: m.structure)
-def test_step_gains_without_the_dense_matrix(model, monkeypatch):
+def test_step_gains_without_the_dense_matrix(model, sparse, monkeypatch):
+    """Both solvers of :mod:`pipeline.superposition` against the dense least squares:
+    the same gains and standard errors, and neither builds the samples x events matrix
+    (the compressed one solves a few rows per event; the KKT one a sparse system of
+    about five unknowns per event)."""
     rec, events = _log(n_events=16, per=2000)
     coef, se, e = _dense_step_gains(rec, events, model)
-    shapes = []
-    real = consistency._structured_lstsq
+    monkeypatch.setattr(superposition, "SPARSE_FROM", 1 if sparse else 10**9)
+    used = []
+    for name in ("compressed", "kkt"):
+        real = getattr(superposition, name)
 
-    def spy(cols, y):
-        out = real(cols, y)
-        shapes.append(out[0].shape)
-        return out
+        def spy(cols, y, real=real, name=name):
+            out = real(cols, y)
+            used.append(name)
+            return out
 
-    monkeypatch.setattr(consistency, "_structured_lstsq", spy)
+        monkeypatch.setattr(superposition, name, spy)
     got = consistency.step_gains(rec, events, model)
+    assert used == ["kkt" if sparse else "compressed"]
     assert set(got) == {ev.index for ev in events}
     for ev in events:
         K, K_se, _, _, _ = got[ev.index]
         assert K == pytest.approx(coef[ev.index + 1], rel=1e-9)
         assert K_se == pytest.approx(se[ev.index + 1], rel=1e-8)
-    # the least squares ran on a few rows per event (the columns still moving in each
-    # segment: the model's memory spans about 11 windows here), not on the 32,000 samples
-    rows, cols = shapes[0]
-    assert cols == len(events) + 1 and rows < rec.n_samples / 100
+
+
+def test_step_gains_with_collinear_columns_fall_back_to_the_svd():
+    """Two identical columns make the KKT system singular: the compressed solver's SVD
+    gives the minimum-norm answer instead, as the dense least squares does."""
+    n = 400
+    vals = np.linspace(0.0, 1.0, 100)
+    cols = [superposition.Column(100, 200, vals, 1.0), superposition.Column(100, 200, vals, 1.0)]
+    y = np.ones(n)
+    y[100:200] += 3.0 * vals
+    y[200:] += 3.0
+    old = superposition.SPARSE_FROM
+    try:
+        superposition.SPARSE_FROM = 1
+        sol = superposition.solve(cols, y)
+    finally:
+        superposition.SPARSE_FROM = old
+    assert sol.coef == pytest.approx([1.0, 1.5, 1.5], rel=1e-9)
+    assert np.max(np.abs(sol.residuals)) < 1e-9
