@@ -25,7 +25,7 @@ from . import consistency
 from .events import EventData
 from .fit import Fit
 from .grade import grade
-from .joint import event_fit, span_fit
+from .joint import event_fit, held_out_events, span_fit
 from .methods import REGISTRY, identify, select_methods
 from .metrics import mse
 from .recommend import information_criteria, recommend
@@ -154,10 +154,11 @@ def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
 
 
 def _held_out(fit: Fit, record: Record, events, ident: list[int]) -> Fit:
-    """With every event identifying: a one-event model's error on the other events."""
+    """With every event identifying: a one-event model's error on the other events (at
+    most :data:`pipeline.joint.MAX_FOLDS` of them, :func:`pipeline.joint.held_out_events`)."""
     if not fit.ok or fit.events or "mse_cross_validation" in fit.metrics:
         return fit
-    _, e = heldout_residuals(fit.model, record, events, [i for i in ident if i != fit.event],
+    _, e = heldout_residuals(fit.model, record, events, held_out_events(ident, fit.event),
                              balance_point(fit))
     return replace(fit, metrics={**fit.metrics, "mse_cross_validation": mse(e, 0 * e)})
 

@@ -7,7 +7,8 @@ anything with its ``record``, ``events``, ``fits``, ``validation_events`` and
 
 1. The criterion: the validation MSE when the record has validation events; else, with
    several identification events, the held-out MSE (``mse_cross_validation``:
-   leave-one-event-out for a model of all events, the other events for a model of one);
+   leave-one-event-out for a model of all events, the other events for a model of one;
+   beyond ten events, ten folds and ten other events, :mod:`pipeline.joint`);
    else (one event, nothing held out) Akaike's information criterion on the
    identification fit (``aic``).
 2. Each structure is represented by its least-squares refinement (fitted to all the
@@ -40,7 +41,7 @@ import numpy as np
 from scipy import stats
 
 from .fit import Fit
-from .joint import fold_models
+from .joint import fold_models, held_out_events
 from .results import Recommendation
 from .uncertainty import variance_factor
 from .validate import balance_point, heldout_residuals
@@ -85,12 +86,19 @@ def complexity(fit: Fit) -> int:
 
 @dataclass(frozen=True)
 class Candidate:
-    """A fit, its criterion value and its held-out errors at sample indices ``idx``."""
+    """A fit, its criterion value and its held-out errors at sample indices ``idx`` (None
+    until :func:`loaded`: a record's held-out errors are as long as the record, so only
+    the few candidates being compared hold theirs, not every fit at once)."""
 
     fit: Fit
     error: float
-    idx: np.ndarray
-    e: np.ndarray
+    idx: np.ndarray | None = None
+    e: np.ndarray | None = None
+
+
+def loaded(c: Candidate, result) -> Candidate:
+    """``c`` with its held-out errors (:func:`held_out`)."""
+    return c if c.idx is not None else Candidate(c.fit, c.error, *held_out(c.fit, result))
 
 
 def criterion(result) -> str:
@@ -113,7 +121,7 @@ def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
         idx = np.concatenate([p[0] for p in parts])
         order = np.argsort(idx, kind="stable")  # interleaved folds: back in time order
         return idx[order], np.concatenate([p[1] for p in parts])[order]
-    others = [i for i in result.identification_events if i != fit.event]
+    others = held_out_events(result.identification_events, fit.event)
     return heldout_residuals(fit.model, rec, events, others, u0)
 
 
@@ -128,27 +136,29 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
         return None
     if crit == "aic":
         return _by_aic(fits, aic_margin)
-    cands = []
-    for f in fits:
-        idx, e = held_out(f, result)
-        cands.append(Candidate(f, float(f.metrics[crit]), idx, e))
-    noise = measurement_noise(result, min(cands, key=lambda c: c.error).idx)
-    reps = [_representative(group, noise, level) for group in _by_structure(cands)]
+    cands = [Candidate(f, float(f.metrics[crit])) for f in fits]
+    lowest = loaded(min(cands, key=lambda c: c.error), result)
+    noise = measurement_noise(result, lowest.idx)
+    reps = [_representative(group, noise, level, result) for group in _by_structure(cands)]
     best = min(reps, key=lambda c: (c.error, complexity(c.fit)))
+    best = lowest if best.fit is lowest.fit else loaded(best, result)
     tied = []
     for c in reps:
+        if c.fit is best.fit:
+            tied.append((best, 0.0, 0.0))
+            continue
+        c = loaded(c, result)  # one at a time: released after its comparison
         diff, se = paired_difference(c, best, noise)
-        if c is best or diff <= Z_STRUCTURE * se or equivalent(c, best, noise):
-            tied.append((c, diff, se))
+        if diff <= Z_STRUCTURE * se or equivalent(c, best, noise):
+            tied.append((Candidate(c.fit, c.error), diff, se))
     chosen, diff, se = min(tied, key=lambda t: (complexity(t[0].fit), t[0].error))
     name = {"mse_validation": "validation MSE",
             "mse_cross_validation": "held-out MSE"}[crit]
-    lowest = min(cands, key=lambda c: c.error)
-    if chosen is not best or lowest is chosen:
+    if chosen.fit is not best.fit or lowest.fit is chosen.fit:
         return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
                                len(cands), f"difference {diff:.3g} +- {se:.2g}, within "
                                f"{Z_STRUCTURE:g} standard errors")
-    diff, se = paired_difference(chosen, lowest, noise)
+    diff, se = paired_difference(loaded(chosen, result), lowest, noise)
     reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method} read "
               f"{lowest.error:.4g} off the response of the same structure, within the "
               f"uncertainty (difference {diff:.3g} +- {se:.2g}), and the refinement is "
@@ -174,7 +184,8 @@ def _by_structure(cands: list[Candidate]) -> list[list[Candidate]]:
     return list(groups.values())
 
 
-def _representative(group: list[Candidate], noise: float, level: float) -> Candidate:
+def _representative(group: list[Candidate], noise: float, level: float, result
+                    ) -> Candidate:
     """The model that stands for a structure: its best refinement, unless a graphical
     model of the structure is better by more than the uncertainty (Bonferroni over them:
     the best of several readings on the same validation noise wins by chance often)."""
@@ -184,7 +195,7 @@ def _representative(group: list[Candidate], noise: float, level: float) -> Candi
         return graph[0]
     rep = min(lsq, key=lambda c: c.error)
     if graph and graph[0].error < rep.error:
-        diff, se = paired_difference(rep, graph[0], noise)
+        diff, se = paired_difference(loaded(rep, result), loaded(graph[0], result), noise)
         if diff > float(stats.norm.ppf(1 - level / (2 * len(graph)))) * se:
             return graph[0]
     return rep

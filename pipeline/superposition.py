@@ -146,7 +146,7 @@ def kkt(cols: list[Column], y: np.ndarray) -> Solution:
         cc.append(np.tile(idx, idx.size))
         vals.append(gram.ravel())
         b[idx] += Z.T @ y[s0:s1]
-        blocks.append((s0, s1, Z, idx))
+        blocks.append((s0, s1, moving, idx))  # Z built again for the residuals: memory
     for g in range(1, g_count):  # l_g - l_(g-1) - sum K_j delta_j (settling at g) = 0
         r = g_count + m + g - 1
         new = segs[g][2]
@@ -162,8 +162,8 @@ def kkt(cols: list[Column], y: np.ndarray) -> Solution:
     if not np.all(np.isfinite(x)):
         raise RuntimeError("the KKT system is singular")
     e = np.empty(n)
-    for s0, s1, Z, idx in blocks:
-        e[s0:s1] = y[s0:s1] - Z @ x[idx]
+    for s0, s1, moving, idx in blocks:
+        e[s0:s1] = y[s0:s1] - _block(cols, s0, s1, moving) @ x[idx]
     coef = np.concatenate([[x[0]], x[g_count: g_count + m]])
     want = np.array([0, *range(g_count, g_count + m)])
     unscaled = np.empty(want.size)

@@ -302,3 +302,11 @@ def test_cross_validation_beyond_the_fold_cap_holds_every_event_out_once():
     assert joint.model.params == pytest.approx({"K": 2.0, "T": 5.0, "delay": 1.0}, rel=0.02)
     assert joint.metrics["mse_cross_validation"] == pytest.approx(noise**2, rel=0.25)
     assert res.recommended is not None
+
+
+def test_one_event_models_are_scored_on_at_most_ten_other_events():
+    from pipeline.joint import held_out_events
+    assert held_out_events([0, 1, 2, 3], 2) == [0, 1, 3]
+    many = held_out_events(range(200), 7)
+    assert len(many) == 10 and 7 not in many and many[0] == 0 and many[-1] == 199
+    assert np.all(np.diff(many) > 0)  # spread over the record, in order
