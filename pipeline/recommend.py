@@ -171,10 +171,10 @@ def equivalent(c: Candidate, best: Candidate, noise: float) -> bool:
     """Whether two models predict the held-out samples within :data:`EQUIVALENT` of the
     noise standard deviation (RMS): then they are the same model for any use, and a win
     of the more complex one is its extra parameters fitting the identification noise."""
-    ic, ib = common_samples(c, best)
-    if ic.size == 0:
+    ec, eb = common_errors(c, best)
+    if ec.size == 0:
         return False
-    return float(np.sqrt(np.mean((c.e[ic] - best.e[ib]) ** 2))) <= EQUIVALENT * math.sqrt(noise)
+    return float(np.sqrt(np.mean((ec - eb) ** 2))) <= EQUIVALENT * math.sqrt(noise)
 
 
 def _by_structure(cands: list[Candidate]) -> list[list[Candidate]]:
@@ -213,16 +213,15 @@ def measurement_noise(result, idx: np.ndarray) -> float:
     return float(np.mean([e.noise**2 for e in evs])) if evs else 0.0
 
 
-def common_samples(c: Candidate, best: Candidate) -> tuple[np.ndarray, np.ndarray]:
-    """Positions in ``c.idx`` and ``best.idx`` of the samples both were scored on, in
-    time order (``numpy.intersect1d``; the same samples, the usual case, without its
-    sort of both arrays)."""
+def common_errors(c: Candidate, best: Candidate) -> tuple[np.ndarray, np.ndarray]:
+    """The two candidates' errors on the samples both were scored on, in time order
+    (``numpy.intersect1d``; for the same samples, the usual case, the arrays themselves:
+    no sort of both index arrays, no copies of record-long errors)."""
     if c.idx.shape == best.idx.shape and np.array_equal(c.idx, best.idx) \
             and (c.idx.size < 2 or bool(np.all(np.diff(c.idx) > 0))):
-        k = np.arange(c.idx.size)
-        return k, k
+        return c.e, best.e
     _, ic, ib = np.intersect1d(c.idx, best.idx, return_indices=True)
-    return ic, ib
+    return c.e[ic], best.e[ib]
 
 
 def paired_difference(c: Candidate, best: Candidate, noise: float) -> tuple[float, float]:
@@ -237,14 +236,13 @@ def paired_difference(c: Candidate, best: Candidate, noise: float) -> tuple[floa
     model's errors (:func:`pipeline.uncertainty.variance_factor`). The sample variance of
     ``d``, or the best model's error as the noise, would count a systematic misfit (one
     long correlated error pattern) as uncertainty and call a far worse model "as good"."""
-    ic, ib = common_samples(c, best)
-    if ic.size < 2:
+    ec, eb = common_errors(c, best)
+    if ec.size < 2:
         return math.inf, 0.0
-    eb = best.e[ib]
-    delta = c.e[ic] - eb
-    d = c.e[ic] ** 2 - eb**2
+    delta = ec - eb
+    mean_d = float(np.mean(delta * (ec + eb)))  # e_c^2 - e_best^2, one temporary fewer
     var = 4 * noise * variance_factor(eb) * float(np.mean(delta**2))
-    return float(np.mean(d)), math.sqrt(var / d.size)
+    return mean_d, math.sqrt(var / ec.size)
 
 
 def _by_aic(fits: list[Fit], margin: float) -> Recommendation:
