@@ -114,14 +114,18 @@ def folds_of(ident: Sequence[int], max_folds: int = MAX_FOLDS) -> list[list[int]
 def held_out_events(ident: Sequence[int], event: int, at_most: int = MAX_FOLDS
                     ) -> list[int]:
     """The events a one-event model of ``event`` is scored on when every event
-    identifies: the other identification events, ``at_most`` of them spread evenly over
-    the record beyond that (each one-event model simulated over all the others made the
-    cost events x samples: minutes, and gigabytes, at 200 events)."""
+    identifies: the other identification events; beyond ``at_most`` of them, one set of
+    ``at_most + 1`` events spread evenly over the record, the same for every model,
+    less the model's own event (or its last, to keep ``at_most``), so any two models
+    are compared on at least ``at_most - 1`` common events. Scoring each one-event model
+    on all the others cost events x samples: minutes, and gigabytes, at 200 events."""
+    ident = list(ident)
     others = [i for i in ident if i != event]
     if len(others) <= at_most:
         return others
-    pick = np.unique(np.round(np.linspace(0, len(others) - 1, at_most)).astype(int))
-    return [others[k] for k in pick]
+    pick = np.round(np.linspace(0, len(ident) - 1, at_most + 1)).astype(int)
+    spread = [ident[k] for k in np.unique(pick)]
+    return [i for i in spread if i != event][:at_most]
 
 
 def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int],

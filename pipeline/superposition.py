@@ -34,6 +34,9 @@ import numpy as np
 SPARSE_FROM = 150
 #: Unit right-hand sides per sparse solve for the variances (memory: rows x this).
 BLOCK = 256
+#: The KKT route only when the columns' moving parts total at most this many times the
+#: samples, and only for a well-determined answer: variance inflation below this.
+OVERLAP, MAX_INFLATION = 8, 1e10
 
 
 @dataclass(frozen=True)
@@ -58,13 +61,28 @@ class Solution:
 
 
 def solve(cols: list[Column], y: np.ndarray) -> Solution:
-    """Least squares of ``y`` on ``[1, cols...]`` (see the module docstring)."""
-    if len(cols) >= SPARSE_FROM and all(c.stop > 0 for c in cols):  # l_0 is then c
+    """Least squares of ``y`` on ``[1, cols...]`` (see the module docstring). The KKT
+    route is taken for many columns that move briefly (at most :data:`OVERLAP` times the
+    samples in all: on an irregular grid they run to the end and the system would fill
+    in), and its answer kept only when no gain is nearly collinear with the others
+    (variance inflation below :data:`MAX_INFLATION`); else the compressed SVD solve,
+    which gives the minimum-norm answer there."""
+    if len(cols) >= SPARSE_FROM and all(c.stop > 0 for c in cols) \
+            and sum(c.stop - c.start for c in cols) <= OVERLAP * y.size:  # l_0 is c
         try:
-            return kkt(cols, y)
+            sol = kkt(cols, y)
+            if np.max(sol.unscaled * _norms2(cols, y.size)) < MAX_INFLATION:
+                return sol
         except (RuntimeError, np.linalg.LinAlgError):
             pass  # singular (collinear columns): the SVD of the compressed problem copes
     return compressed(cols, y)
+
+
+def _norms2(cols: list[Column], n: int) -> np.ndarray:
+    """Squared norms of ``[1, cols...]`` over the ``n`` samples: with the unscaled
+    variances, each coefficient's variance inflation factor ``1 / (1 - R^2)``."""
+    return np.array([float(n), *(float(c.values @ c.values) + c.delta**2 * (n - c.stop)
+                                 for c in cols)])
 
 
 def _segments(cols: list[Column], n: int):
@@ -115,7 +133,10 @@ def compressed(cols: list[Column], y: np.ndarray) -> Solution:
         rhs.append(Q.T @ y[s0:s1])
         segs.append((s0, s1, Z, P))
     M, r = np.vstack(blocks), np.concatenate(rhs)
-    coef, *_ = np.linalg.lstsq(M, r, rcond=None)
+    # columns scaled to unit norm first: the SVD's cut-off is relative to the largest
+    # singular value, and femto-unit inputs beside the offset column would fall below it
+    norm = np.maximum(np.sqrt(np.sum(M**2, axis=0)), 1e-300)
+    coef = np.linalg.lstsq(M / norm, r, rcond=None)[0] / norm
     e = np.empty(n)
     for s0, s1, Z, P in segs:
         e[s0:s1] = y[s0:s1] - Z @ (P @ coef)

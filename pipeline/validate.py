@@ -105,18 +105,32 @@ def continuous_simulation(model: ProcessModel, record: Record, events: list[Even
     only, from rest at the same operating point: the samples from ``needed`` on are the
     same to rounding, and a validation run late in a long record costs its own length,
     not the record's (the entries before ``needed`` are then not computed: NaN)."""
+    start, sim = _simulated(model, record, events, stop, balance, needed)
+    return np.concatenate([np.full(start, np.nan), sim]) if start else sim
+
+
+def _late_start(model: ProcessModel, record: Record, events: list[Event],
+                balance: float | None) -> int | None:
+    """The samples a simulation may start before the first one it needs
+    (:func:`continuous_simulation`), or None when it must start at the record's start
+    (an integrating model on a ramp, an irregular grid, a model without finite memory)."""
+    if ramp_before(model, events[0], balance) or record.sample_time is None:
+        return None
+    return memory(model, record.sample_time)
+
+
+def _simulated(model: ProcessModel, record: Record, events: list[Event],
+               stop: int | None, balance: float | None, needed: int) -> tuple[int, np.ndarray]:
+    """``(start, simulated output on [start, stop))`` of :func:`continuous_simulation`."""
     stop = record.n_samples if stop is None else stop
     first = events[0]
     slope = ramp_before(model, first, balance)
     start = 0
-    if needed > 0 and not slope and record.sample_time is not None:
-        mem = memory(model, record.sample_time)
-        if mem is not None:
-            start = max(0, min(needed, stop) - mem)
+    mem = _late_start(model, record, events, balance) if needed > 0 else None
+    if mem is not None:
+        start = max(0, min(needed, stop) - mem)
     sim = simulate(model, record, slice(start, stop), first.u0, first.y0)
-    if start:
-        sim = np.concatenate([np.full(start, np.nan), sim])
-    return sim + slope * (record.t[:stop] - first.t0) if slope else sim
+    return start, (sim + slope * (record.t[start:stop] - first.t0) if slope else sim)
 
 
 def warmup_correction(model: ProcessModel, t: np.ndarray, error: np.ndarray,
@@ -158,18 +172,33 @@ def validation_simulation(model: ProcessModel, record: Record, events: list[Even
                           validation: list[int], balance: float | None = None
                           ) -> list[tuple[slice, np.ndarray]]:
     """``(samples, simulated output)`` for each contiguous validation run (see the module
-    docstring: continuous simulation, offset estimated on the warm-up before each run)."""
+    docstring: continuous simulation, offset estimated on the warm-up before each run).
+
+    Runs further apart than the model's memory are simulated separately, each from its
+    memory before its warm-up (:func:`continuous_simulation`: the same samples to
+    rounding), so validating on a few events spread over a long record costs their
+    length, not the record's."""
     runs = validation_runs(events, validation)
     if not runs:
         return []
     warmups = [warmup(events, first) for _, _, first in runs]
-    needed = min(min(w.start for w in warmups), min(a for a, _, _ in runs))
-    sim = continuous_simulation(model, record, events, max(b for _, b, _ in runs), balance,
-                                needed=needed)
+    needed = [min(w.start, a) for w, (a, _, _) in zip(warmups, runs, strict=True)]
+    mem = _late_start(model, record, events, balance)
+    groups: list[list[int]] = []
+    for k in range(len(runs)):
+        if groups and (mem is None or needed[k] - mem <= runs[groups[-1][-1]][1]):
+            groups[-1].append(k)
+        else:
+            groups.append([k])
     out = []
-    for (a, b, _), w in zip(runs, warmups, strict=True):
-        corr = warmup_correction(model, record.t[w], record.y[w] - sim[w], record.t[a:b])
-        out.append((slice(a, b), sim[a:b] + corr))
+    for group in groups:
+        start, sim = _simulated(model, record, events, runs[group[-1]][1], balance,
+                                needed=min(needed[k] for k in group))
+        for k in group:
+            (a, b, _), w = runs[k], warmups[k]
+            ws = slice(w.start - start, w.stop - start)
+            corr = warmup_correction(model, record.t[w], record.y[w] - sim[ws], record.t[a:b])
+            out.append((slice(a, b), sim[a - start: b - start] + corr))
     return out
 
 
