@@ -1,6 +1,6 @@
 """One model over a span of the record, its state carried by the measured input: a step
 that starts on a previous step's tail, several identification events with one model, and
-leave-one-event-out cross-validation.
+leave-one-event-out cross-validation (in ten folds beyond ten events).
 
 The model is simulated continuously from the baseline of the latest event that started at
 rest (:func:`pipeline.refine_record.carry_source`; at rest there) to the end of the last
@@ -161,8 +161,8 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
              structure: str, *, models: Sequence[ProcessModel], states: Sequence[str],
              cross_validation: bool = False, options: RefineOptions | None = None) -> Fit:
     """The fit of ``method`` over the events ``ident`` (:func:`span`): ``event`` the first,
-    ``events`` all of them when there are several; the leave-one-event-out error when
-    ``cross_validation``. No output change is ``not_applicable``, a failure ``failed``;
+    ``events`` all of them when there are several; the cross-validated error
+    (:func:`cross_validate`) when ``cross_validation``. No output change is ``not_applicable``, a failure ``failed``;
     never an exception."""
     ident = list(ident)
     many = tuple(ident) if len(ident) > 1 else ()
