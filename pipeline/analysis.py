@@ -12,10 +12,10 @@ identification events each refinement also runs once over all of them (one model
 state carried through the record), and with ``events: all`` leave-one-event-out
 cross-validation gives its held-out error (``mse_cross_validation``; a one-event model's
 is its error on the other events; beyond ten events, ten folds and ten spread events:
-:func:`pipeline.joint.folds_of`, :func:`pipeline.joint.held_out_events`). Every ok fit gets an information criterion on its own
-event (``aic``). With three steps or more every step is also identified on its own
-(:mod:`pipeline.consistency`); grading flags what disagrees, and the record gets its
-recommended model (:func:`pipeline.recommend.recommend`).
+:func:`pipeline.joint.folds_of`, :func:`pipeline.joint.held_out_events`). Every ok fit
+gets an information criterion on its own event (``aic``). With three steps or more every
+step is also identified on its own (:mod:`pipeline.consistency`); grading flags what
+disagrees, and the record gets its recommended model (:func:`pipeline.recommend.recommend`).
 """
 
 from __future__ import annotations

@@ -40,9 +40,10 @@ class SegmentationConfig(_Strict):
 
 class IdentificationConfig(_Strict):
     """Which events identify (the others validate; ``all``: every event, with
-    leave-one-event-out cross-validation, ten folds beyond ten events) and how the least-squares refinements run:
-    ``starts`` runs from the best candidate starts, ``bootstrap`` block-bootstrap refits
-    for the intervals (0: Jacobian intervals scaled by the effective sample size)."""
+    leave-one-event-out cross-validation, ten folds beyond ten events) and how the
+    least-squares refinements run: ``starts`` runs from the best candidate starts,
+    ``bootstrap`` block-bootstrap refits for the intervals (0: Jacobian intervals scaled
+    by the effective sample size)."""
 
     events: list[int] | Literal["all"] = Field(default_factory=lambda: [0])
     starts: int = Field(3, ge=1, le=20)

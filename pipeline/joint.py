@@ -162,8 +162,8 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
              cross_validation: bool = False, options: RefineOptions | None = None) -> Fit:
     """The fit of ``method`` over the events ``ident`` (:func:`span`): ``event`` the first,
     ``events`` all of them when there are several; the cross-validated error
-    (:func:`cross_validate`) when ``cross_validation``. No output change is ``not_applicable``, a failure ``failed``;
-    never an exception."""
+    (:func:`cross_validate`) when ``cross_validation``. No output change is
+    ``not_applicable``, a failure ``failed``; never an exception."""
     ident = list(ident)
     many = tuple(ident) if len(ident) > 1 else ()
     if all(abs(events[i].y_ss - events[i].y0) <= 3 * events[i].noise for i in ident):

@@ -29,6 +29,20 @@ def blocks(mask: np.ndarray, max_rows: int) -> tuple[np.ndarray, np.ndarray]:
     return starts, np.diff(np.r_[starts, idx.size]).astype(float)
 
 
+def block_bounds(mask: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(bounds, keep)``: the blocks of :func:`blocks` (starting at fit-sample indices
+    ``starts``) as ``numpy.add.reduceat`` boundaries in the span, with the first sample
+    of every gap of ``mask`` after a block as a boundary too, and which of the reduced
+    blocks are the rows (the others are the gaps)."""
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return np.zeros(0, int), np.zeros(0, int)
+    first = idx[starts]
+    gaps = np.flatnonzero(mask[:-1] & ~mask[1:]) + 1  # a run of fit samples ends here
+    bounds = np.union1d(first, gaps)
+    return bounds, np.searchsorted(bounds, first)
+
+
 def solve(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:
     """Least-squares coefficients of ``a c = y`` (columns scaled, rank-revealing SVD)."""
     scale = np.linalg.norm(a, axis=0)

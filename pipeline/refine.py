@@ -39,11 +39,12 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
 from . import basis
-from .lstsq import block_means, blocks, project_out, solve
+from .lstsq import block_bounds, block_means, blocks, project_out, solve
 from .models import STRUCTURES, ProcessModel
 from .search import Run, Space, multistart, search_space, snap
 from .uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
@@ -134,6 +135,8 @@ class _Problem:
     free_lags: int
     full: bool = False  # every sample of the span is a fit sample
     linear: tuple[str, ...] = ()  # LINEAR_PARAMS solved inside the residual (the search)
+    bounds: np.ndarray | None = None  # reduceat boundaries in the span (rows, then gaps)
+    keep: np.ndarray | None = None  # which of the reduced blocks are rows
 
     @property
     def estimate_state(self) -> bool:
@@ -148,12 +151,34 @@ class _Problem:
         return STRUCTURES[self.structure].integrating and self.state != "rest"
 
     def rows(self, a: np.ndarray) -> np.ndarray:
-        """Criterion rows of span columns ``a`` (or of a span vector)."""
-        m = a if self.full else a[self.mask]
-        if self.starts.size == m.shape[0]:
-            return m
-        w = np.sqrt(self.counts) if m.ndim == 1 else np.sqrt(self.counts)[:, None]
-        return np.add.reduceat(m, self.starts, axis=0) / w
+        """Criterion rows of span columns ``a`` (or of a span vector). Blocks never
+        straddle a gap of the mask (:func:`pipeline.lstsq.blocks`), so they are summed in
+        place, the gaps as blocks of their own that are dropped (the same sums as of the
+        masked copy, without copying the span's columns on every evaluation)."""
+        if self.starts.size == int(self.counts.size) and self.starts.size == int(
+                np.count_nonzero(self.mask)) and self.counts.max(initial=1) == 1:
+            return a if self.full else a[self.mask]
+        w = np.sqrt(self.counts) if a.ndim == 1 else np.sqrt(self.counts)[:, None]
+        return np.add.reduceat(a, self.bounds, axis=0)[self.keep] / w
+
+    @cached_property
+    def offset_rows(self) -> np.ndarray:
+        """The rows of the offset column (all ones), which no parameter changes."""
+        return self.rows(np.ones(self.t_rel.size))
+
+    def design_rows(self, p: Mapping[str, float]) -> np.ndarray:
+        """``rows(design(p))``; at rest the offset is the only nuisance column and its
+        rows are computed once (:attr:`offset_rows`)."""
+        if self.estimate_state or self.balance:
+            return self.rows(self.design(p))
+        base = {**p, **dict.fromkeys(self.linear, 0.0)}
+        x0 = self.forced(base)
+        xs = [self.rows(self.forced({**base, n: 1.0}) - x0) for n in self.linear]
+        return np.column_stack([self.rows(x0), *xs, self.offset_rows])
+
+    def forced(self, p: Mapping[str, float]) -> np.ndarray:
+        """The unit-gain forced response over the span."""
+        return basis.forced_response(self.structure, dict(p), self.t_rel, self.du, self.dt)
 
     def design(self, p: Mapping[str, float]) -> np.ndarray:
         """The span columns of the linear solve: the forced response (with ``linear``: at
@@ -168,7 +193,7 @@ class _Problem:
 
     def columns(self, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
         """``(x, nuisance columns)`` over the whole span."""
-        x = basis.forced_response(self.structure, dict(p), self.t_rel, self.du, self.dt)
+        x = self.forced(p)
         cols = [np.ones_like(x)]
         if self.balance:  # an input offset from the start: lagged, or a ramp already steady
             cols.append(basis.offset_response(self.structure, dict(p), self.t_rel)
@@ -204,7 +229,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     y = np.asarray(y, np.float64)
     prob = _Problem(structure, t - t[0], np.asarray(u, np.float64) - u_ref, y, mask, starts_,
                     counts, dt, span, initial_state, opt.free_lags,
-                    bool(mask.all()))
+                    bool(mask.all()), (), *block_bounds(mask, starts_))
     prob = replace(prob, y=prob.rows(y))
     y_fit = y[mask]
     spec = STRUCTURES[structure]
@@ -245,7 +270,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
 
 def _solution(prob: _Problem, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """``(criterion rows of the design, linear coefficients)`` at ``p``."""
-    a = prob.rows(prob.design(p))
+    a = prob.design_rows(p)
     return a, solve(a, prob.y)[0]
 
 

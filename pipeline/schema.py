@@ -63,8 +63,9 @@ class MetricsDoc(_Doc):
     (MATLAB's NRMSE fit) over the validation events (simulated continuously, the offset
     estimated on a warm-up); ``mse_cross_validation`` the held-out MSE when every event
     identifies (leave-one-event-out for a model of all events, the other events for a model
-    of one; beyond ten events ten folds, and ten events spread over the record); ``aic`` Akaike's criterion on the identification event (one effective sample
-    size per event, so comparable between the models of an event)."""
+    of one; beyond ten events ten folds, and ten events spread over the record); ``aic``
+    Akaike's criterion on the identification event (one effective sample size per event,
+    so comparable between the models of an event)."""
 
     ise: float | None = None
     mse_identification: float | None = None
