@@ -39,13 +39,13 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from functools import cached_property
 
 import numpy as np
 
 from . import basis
 from .lstsq import block_bounds, block_means, blocks, project_out, solve
 from .models import STRUCTURES, ProcessModel
+from .problem import Problem
 from .search import Run, Space, multistart, search_space, snap
 from .uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
 
@@ -116,95 +116,6 @@ class Refinement:
         return self.residuals.size / self.variance_factor
 
 
-@dataclass(frozen=True)
-class _Problem:
-    """The data of a fit. The criterion rows are the fit samples, or on a long window the
-    means of blocks of consecutive fit samples times sqrt(block size) (the model is still
-    simulated at every sample; averaging only drops within-block noise)."""
-
-    structure: str
-    t_rel: np.ndarray  # time since the span start
-    du: np.ndarray  # u - u_ref over the span
-    y: np.ndarray  # measured output at the criterion rows
-    mask: np.ndarray  # fit samples of the span
-    starts: np.ndarray  # first fit sample (index into the masked samples) of each row
-    counts: np.ndarray  # fit samples per row
-    dt: float | None
-    horizon: float
-    state: str  # "rest", "estimated" or "steady" (see refine)
-    free_lags: int
-    full: bool = False  # every sample of the span is a fit sample
-    linear: tuple[str, ...] = ()  # LINEAR_PARAMS solved inside the residual (the search)
-    bounds: np.ndarray | None = None  # reduceat boundaries in the span (rows, then gaps)
-    keep: np.ndarray | None = None  # which of the reduced blocks are rows
-
-    @property
-    def estimate_state(self) -> bool:
-        return self.state == "estimated"
-
-    @property
-    def balance(self) -> bool:
-        """Whether the input balance point of an integrating structure is estimated: with
-        the state or on a steady ramp, not at rest (at rest the model is in equilibrium
-        at ``u_ref``; a free balance point would let a ramp before the step pass for
-        rest, and a lag's settling for an integrator whose input came to balance)."""
-        return STRUCTURES[self.structure].integrating and self.state != "rest"
-
-    def rows(self, a: np.ndarray) -> np.ndarray:
-        """Criterion rows of span columns ``a`` (or of a span vector). Blocks never
-        straddle a gap of the mask (:func:`pipeline.lstsq.blocks`), so they are summed in
-        place, the gaps as blocks of their own that are dropped (the same sums as of the
-        masked copy, without copying the span's columns on every evaluation)."""
-        if self.starts.size == int(self.counts.size) and self.starts.size == int(
-                np.count_nonzero(self.mask)) and self.counts.max(initial=1) == 1:
-            return a if self.full else a[self.mask]
-        w = np.sqrt(self.counts) if a.ndim == 1 else np.sqrt(self.counts)[:, None]
-        return np.add.reduceat(a, self.bounds, axis=0)[self.keep] / w
-
-    @cached_property
-    def offset_rows(self) -> np.ndarray:
-        """The rows of the offset column (all ones), which no parameter changes."""
-        return self.rows(np.ones(self.t_rel.size))
-
-    def design_rows(self, p: Mapping[str, float]) -> np.ndarray:
-        """``rows(design(p))``; at rest the offset is the only nuisance column and its
-        rows are computed once (:attr:`offset_rows`)."""
-        if self.estimate_state or self.balance:
-            return self.rows(self.design(p))
-        base = {**p, **dict.fromkeys(self.linear, 0.0)}
-        x0 = self.forced(base)
-        xs = [self.rows(self.forced({**base, n: 1.0}) - x0) for n in self.linear]
-        return np.column_stack([self.rows(x0), *xs, self.offset_rows])
-
-    def forced(self, p: Mapping[str, float]) -> np.ndarray:
-        """The unit-gain forced response over the span."""
-        return basis.forced_response(self.structure, dict(p), self.t_rel, self.du, self.dt)
-
-    def design(self, p: Mapping[str, float]) -> np.ndarray:
-        """The span columns of the linear solve: the forced response (with ``linear``: at
-        0 and the change per unit of each), then :meth:`columns`' nuisance columns."""
-        if not self.linear:
-            x, nuis = self.columns(p)
-            return np.column_stack([x, nuis])
-        x0, nuis = self.columns({**p, **dict.fromkeys(self.linear, 0.0)})
-        xs = [self.columns({**p, **dict.fromkeys(self.linear, 0.0), n: 1.0})[0] - x0
-              for n in self.linear]
-        return np.column_stack([x0, *xs, nuis])
-
-    def columns(self, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, nuisance columns)`` over the whole span."""
-        x = self.forced(p)
-        cols = [np.ones_like(x)]
-        if self.balance:  # an input offset from the start: lagged, or a ramp already steady
-            cols.append(basis.offset_response(self.structure, dict(p), self.t_rel)
-                        if self.estimate_state else self.t_rel)
-        if self.estimate_state:
-            b = basis.free_basis(self.structure, dict(p), self.t_rel, self.horizon,
-                                 self.free_lags)
-            cols.extend(b.T)
-        return x, np.column_stack(cols)
-
-
 def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[str, float]],
            mask: np.ndarray | None = None, initial_state: str = "rest",
            fixed: Mapping[str, float] | None = None, options: RefineOptions | None = None
@@ -227,7 +138,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     span = float(t[-1] - t[0])
     starts_, counts = blocks(mask, opt.max_rows)
     y = np.asarray(y, np.float64)
-    prob = _Problem(structure, t - t[0], np.asarray(u, np.float64) - u_ref, y, mask, starts_,
+    prob = Problem(structure, t - t[0], np.asarray(u, np.float64) - u_ref, y, mask, starts_,
                     counts, dt, span, initial_state, opt.free_lags,
                     bool(mask.all()), (), *block_bounds(mask, starts_))
     prob = replace(prob, y=prob.rows(y))
@@ -268,18 +179,18 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     return ref
 
 
-def _solution(prob: _Problem, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+def _solution(prob: Problem, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """``(criterion rows of the design, linear coefficients)`` at ``p``."""
     a = prob.design_rows(p)
     return a, solve(a, prob.y)[0]
 
 
-def _residual(prob: _Problem, p: Mapping[str, float]) -> np.ndarray:
+def _residual(prob: Problem, p: Mapping[str, float]) -> np.ndarray:
     a, c = _solution(prob, p)
     return prob.y - a @ c
 
 
-def _linear_values(prob: _Problem, p: Mapping[str, float]) -> dict[str, float]:
+def _linear_values(prob: Problem, p: Mapping[str, float]) -> dict[str, float]:
     """The :data:`LINEAR_PARAMS` of the linear solve at ``p``: coefficient over gain."""
     if not prob.linear:
         return {}
@@ -288,7 +199,7 @@ def _linear_values(prob: _Problem, p: Mapping[str, float]) -> dict[str, float]:
     return {n: float(c[1 + i]) / k for i, n in enumerate(prob.linear)}
 
 
-def _multistart(prob: _Problem, space: Space, fixed, starts, n_starts: int, max_nfev: int
+def _multistart(prob: Problem, space: Space, fixed, starts, n_starts: int, max_nfev: int
                 ) -> Run:
     """The best least-squares run (:func:`pipeline.search.multistart`) of the residual
     over ``space`` with ``fixed`` held."""
@@ -298,7 +209,7 @@ def _multistart(prob: _Problem, space: Space, fixed, starts, n_starts: int, max_
                       n_starts, max_nfev)
 
 
-def _integer(prob: _Problem, space: Space, fixed, p_best, ints, dt, span, opt,
+def _integer(prob: Problem, space: Space, fixed, p_best, ints, dt, span, opt,
              polish: bool = False) -> Run:
     """Refit with each integer parameter fixed at the integers around its real optimum
     (``polish``: at the value it has, an integer already)."""
@@ -317,7 +228,7 @@ def _integer(prob: _Problem, space: Space, fixed, p_best, ints, dt, span, opt,
     return replace(best, nfev=nfev)
 
 
-def _finish(prob: _Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
+def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p``."""
     a = prob.design(p)
@@ -357,7 +268,7 @@ def _finish(prob: _Problem, space: Space, p, y_fit, initial_state, u_ref, opt, n
                                              "rows": int(prob.y.size)})
 
 
-def _profiled_jacobian(prob: _Problem, space: Space, p, K: float) -> np.ndarray:
+def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
     """Jacobian of ``P(theta) (y - K x(theta))`` wrt (z, K), the nuisance columns (offset,
     state, input balance) projected out by ``P``; central differences in z."""
     def prof(z):
@@ -397,7 +308,7 @@ def _canonical(structure, params, ci, std):
     return params, ci, std
 
 
-def _bootstrap(prob: _Problem, space: Space, ref: Refinement, fixed, opt) -> Refinement:
+def _bootstrap(prob: Problem, space: Space, ref: Refinement, fixed, opt) -> Refinement:
     """Percentile intervals from refits to ``fitted + block-resampled residuals``."""
     draws = []
     start = {n: ref.model.params[n] for n in space.names}
