@@ -74,6 +74,18 @@ def start(d: Path, cfg: Path, out: Path) -> subprocess.Popen:
         start_new_session=True)
 
 
+def _unchanged_or_complete(before: dict, after: dict, delay: float) -> dict:
+    """The outputs are the old ones, or a complete new report: every file replaced, the
+    results of all six records (never a mix of old and new, never a part)."""
+    if after == before:
+        return before
+    changed = {k for k in after if after[k] != before.get(k)}
+    assert after.keys() == before.keys(), f"delay {delay:.2f} s"
+    assert {"results.json", "report.md", "report.html"} <= changed, (delay, changed)
+    assert len(json.loads(after["results.json"])["records"]) == 6
+    return after
+
+
 def test_sigterm_at_random_points_leaves_nothing_behind(nightly):
     d, cfg, out = nightly
     before = snapshot(out)
@@ -88,16 +100,15 @@ def test_sigterm_at_random_points_leaves_nothing_behind(nightly):
         err = stderr.decode()
         assert wait_gone(proc.pid) == [], f"delay {delay:.2f} s"
         assert sorted(p.name for p in out.parent.iterdir()) == ["night"], f"delay {delay:.2f}"
-        if proc.returncode == -signal.SIGTERM:  # before the handler: nothing had started
-            assert snapshot(out) == before
+        if proc.returncode == -signal.SIGTERM:
+            # no handler: before it was installed (nothing had started), or after it was
+            # removed at the end of a run that had published everything
+            before = _unchanged_or_complete(before, snapshot(out), delay)
         elif proc.returncode == 128 + signal.SIGTERM:
             interrupted += 1
             assert "interrupted by SIGTERM" in err and "Traceback" not in err, err
-            after = snapshot(out)
-            if after != before:  # the signal came while the new report was put in place:
-                assert after.keys() == before.keys(), f"delay {delay:.2f} s"  # all of it
-                assert len(json.loads(after["results.json"])["records"]) == 6
-                before = after
+            # the signal may have come while the new report was put in place: all of it
+            before = _unchanged_or_complete(before, snapshot(out), delay)
         else:  # the run had finished: a complete new report
             assert proc.returncode == 0, (delay, proc.returncode, err)
             assert b"6 of 6 record(s)" in stdout
