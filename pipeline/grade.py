@@ -18,13 +18,13 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy.stats import spearmanr
 
 from .consistency import gain_flags
 from .events import Event
 from .fit import Fit, Flag
 from .methods import REGISTRY
 from .models import PARAMETERS
+from .ranks import spearman
 from .record import Record, in_time_unit
 from .results import RecordResult
 
@@ -157,7 +157,7 @@ def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
         return None
     # the gain's sign from the levels: in steady state y follows K u, open or closed loop
     sign = float(np.sign(np.corrcoef(record.u, record.y)[0, 1])) or 1.0
-    rho = float(spearmanr(du[moving], dy[moving]).statistic)
+    rho = spearman(du[moving], dy[moving])  # scipy's spearmanr took 1.2 GB at 10 M
     if not rho * sign < -CLOSED_LOOP_CORR:
         return None
     return Flag(

@@ -49,8 +49,11 @@ def simulate(model: ProcessModel, record: Record, sl: slice, u0: float, y0: floa
     t, u = record.t[sl], record.u[sl]
     if t.size < 2:
         return np.full(t.size, float(y0))
-    return float(y0) + model.K * forced_response(model.structure, dict(model.params), t,
-                                                 u - float(u0), record.sample_time)
+    x = forced_response(model.structure, dict(model.params), t, u - float(u0),
+                        record.sample_time)
+    x *= model.K  # in place: forced_response returns a fresh array
+    x += float(y0)
+    return x
 
 
 def event_simulation(model: ProcessModel, record: Record, ev: Event) -> np.ndarray:
@@ -194,11 +197,17 @@ def validation_simulation(model: ProcessModel, record: Record, events: list[Even
     for group in groups:
         start, sim = _simulated(model, record, events, runs[group[-1]][1], balance,
                                 needed=min(needed[k] for k in group))
-        for k in group:
+        corrections = []
+        for k in group:  # every warm-up read before any run is corrected in place
             (a, b, _), w = runs[k], warmups[k]
             ws = slice(w.start - start, w.stop - start)
-            corr = warmup_correction(model, record.t[w], record.y[w] - sim[ws], record.t[a:b])
-            out.append((slice(a, b), sim[a - start: b - start] + corr))
+            corrections.append(warmup_correction(model, record.t[w], record.y[w] - sim[ws],
+                                                 record.t[a:b]))
+        for k, corr in zip(group, corrections, strict=True):
+            a, b, _ = runs[k]
+            v = sim[a - start: b - start]
+            v += corr  # in place: a record-long copy less (views of one simulation)
+            out.append((slice(a, b), v))
     return out
 
 
@@ -210,8 +219,17 @@ def heldout_residuals(model: ProcessModel, record: Record, events: list[Event],
     sims = validation_simulation(model, record, events, heldout, balance)
     if not sims:
         return np.empty(0, int), np.empty(0)
-    idx = np.concatenate([np.arange(s.start, s.stop) for s, _ in sims])
-    return idx, record.y[idx] - np.concatenate([v for _, v in sims])
+    n = sum(s.stop - s.start for s, _ in sims)
+    # filled run by run: no concatenated copies of record-long arrays (issue 14 memory)
+    idx = np.empty(n, np.int32 if record.n_samples < 2**31 else np.int64)
+    e = np.empty(n)
+    k = 0
+    for s, v in sims:
+        m = s.stop - s.start
+        idx[k: k + m] = np.arange(s.start, s.stop, dtype=idx.dtype)
+        np.subtract(record.y[s], v, out=e[k: k + m])
+        k += m
+    return idx, e
 
 
 def score(model: ProcessModel, record: Record, events: list[Event], ident: Event,

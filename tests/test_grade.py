@@ -162,3 +162,20 @@ def test_flag_messages_speak_the_users_time_unit():
     res = analyse(rec, AnalysisOptions(methods=FIRST))
     flag = next(f for f in res.fit("first_order", 0).flags if f.code == "unsettled")
     assert "0.25 min after the step" in flag.message
+
+
+def test_spearman_is_scipys_with_ties_and_nan_when_constant():
+    """The closed-loop check's rank correlation (pipeline.ranks, lean in memory) is
+    scipy's spearmanr, ties included (sample-to-sample input changes are mostly 0)."""
+    import math
+
+    from scipy.stats import spearmanr
+
+    from pipeline.ranks import average_ranks, spearman
+    rng = np.random.default_rng(5)
+    for digits in (0, 1, 3):
+        x = np.round(rng.normal(size=5000), digits)
+        y = np.round(-0.4 * x + rng.normal(size=5000), 1)
+        assert spearman(x, y) == pytest.approx(spearmanr(x, y).statistic, abs=1e-12)
+    assert list(average_ranks(np.array([3.0, 1.0, 3.0, 2.0]))) == [3.5, 1.0, 3.5, 2.0]
+    assert math.isnan(spearman(np.ones(10), np.arange(10.0)))
