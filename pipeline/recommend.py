@@ -174,7 +174,7 @@ def equivalent(c: Candidate, best: Candidate, noise: float) -> bool:
     ec, eb = common_errors(c, best)
     if ec.size == 0:
         return False
-    return float(np.sqrt(np.mean((ec - eb) ** 2))) <= EQUIVALENT * math.sqrt(noise)
+    return math.sqrt(_paired_sums(ec, eb)[1] / ec.size) <= EQUIVALENT * math.sqrt(noise)
 
 
 def _by_structure(cands: list[Candidate]) -> list[list[Candidate]]:
@@ -239,10 +239,26 @@ def paired_difference(c: Candidate, best: Candidate, noise: float) -> tuple[floa
     ec, eb = common_errors(c, best)
     if ec.size < 2:
         return math.inf, 0.0
-    delta = ec - eb
-    mean_d = float(np.mean(delta * (ec + eb)))  # e_c^2 - e_best^2, one temporary fewer
-    var = 4 * noise * variance_factor(eb) * float(np.mean(delta**2))
-    return mean_d, math.sqrt(var / ec.size)
+    sum_d, sum_delta2 = _paired_sums(ec, eb)
+    var = 4 * noise * variance_factor(eb) * sum_delta2 / ec.size
+    return sum_d / ec.size, math.sqrt(var / ec.size)
+
+
+#: Samples per chunk of :func:`_paired_sums` (its temporaries: a few of this size).
+CHUNK = 1 << 20
+
+
+def _paired_sums(ec: np.ndarray, eb: np.ndarray) -> tuple[float, float]:
+    """``(sum of e_c^2 - e_best^2, sum of (e_c - e_best)^2)``, as ``delta (e_c + e_best)``
+    and ``delta^2`` (``delta = e_c - e_best``: no cancellation when the two are close),
+    chunk by chunk (record-long temporaries were most of the recommendation's memory)."""
+    s_d = s_2 = 0.0
+    for k in range(0, ec.size, CHUNK):
+        a, b = ec[k: k + CHUNK], eb[k: k + CHUNK]
+        delta = a - b
+        s_2 += float(delta @ delta)
+        s_d += float(delta @ (a + b))
+    return s_d, s_2
 
 
 def _by_aic(fits: list[Fit], margin: float) -> Recommendation:

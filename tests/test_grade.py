@@ -177,5 +177,7 @@ def test_spearman_is_scipys_with_ties_and_nan_when_constant():
         x = np.round(rng.normal(size=5000), digits)
         y = np.round(-0.4 * x + rng.normal(size=5000), 1)
         assert spearman(x, y) == pytest.approx(spearmanr(x, y).statistic, abs=1e-12)
+    x, y = rng.normal(size=5000), rng.normal(size=5000)  # no ties
+    assert spearman(x, x + y) == pytest.approx(spearmanr(x, x + y).statistic, abs=1e-12)
     assert list(average_ranks(np.array([3.0, 1.0, 3.0, 2.0]))) == [3.5, 1.0, 3.5, 2.0]
     assert math.isnan(spearman(np.ones(10), np.arange(10.0)))
