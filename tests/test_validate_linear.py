@@ -26,6 +26,19 @@ def _log(n_events: int = 24, per: int = 3000, dt: float = 0.01):
     return rec, segment(rec, SegmentOptions())
 
 
+def _simulated_lengths(monkeypatch) -> list[int]:
+    """The lengths validation simulates, appended as it goes."""
+    lengths: list[int] = []
+    real = validate.forced_response
+
+    def counting(structure, p, t, du, dt=None):
+        lengths.append(t.size)
+        return real(structure, p, t, du, dt)
+
+    monkeypatch.setattr(validate, "forced_response", counting)
+    return lengths
+
+
 MODELS = [
     ProcessModel("first_order", {"K": 2.01, "T": 5.05, "delay": 0.5}),
     ProcessModel("two_lags", {"K": 2.0, "T1": 4.6, "T2": 0.5, "delay": 0.43}),
@@ -38,14 +51,7 @@ MODELS = [
 def test_late_event_scored_from_its_memory_equals_the_whole_record(model, monkeypatch):
     rec, events = _log()
     j = len(events) - 2
-    lengths = []
-    real = validate.forced_response
-
-    def counting(structure, p, t, du, dt=None):
-        lengths.append(t.size)
-        return real(structure, p, t, du, dt)
-
-    monkeypatch.setattr(validate, "forced_response", counting)
+    lengths = _simulated_lengths(monkeypatch)
     idx, e = validate.heldout_residuals(model, rec, events, [j])
     # the reference: the model driven from the first sample of the record, at rest at the
     # first event's operating point, the offset estimated on the same warm-up
@@ -64,14 +70,7 @@ def test_late_event_scored_from_its_memory_equals_the_whole_record(model, monkey
 
 def test_integrating_model_still_simulated_from_the_start(monkeypatch):
     rec, events = _log(n_events=8)
-    lengths = []
-    real = validate.forced_response
-
-    def counting(s, p, t, du, dt=None):
-        lengths.append(t.size)
-        return real(s, p, t, du, dt)
-
-    monkeypatch.setattr(validate, "forced_response", counting)
+    lengths = _simulated_lengths(monkeypatch)
     m = ProcessModel("integrator_lag", {"K": 0.4, "T": 5.0, "delay": 0.5})
     validate.heldout_residuals(m, rec, events, [6])
     assert lengths == [events[6].i_end]
@@ -153,14 +152,7 @@ def test_events_far_apart_are_simulated_each_from_its_memory(monkeypatch):
     rec, events = _log()
     model = MODELS[0]
     held = [3, 12, 21]
-    lengths = []
-    real = validate.forced_response
-
-    def counting(structure, p, t, du, dt=None):
-        lengths.append(t.size)
-        return real(structure, p, t, du, dt)
-
-    monkeypatch.setattr(validate, "forced_response", counting)
+    lengths = _simulated_lengths(monkeypatch)
     idx, e = validate.heldout_residuals(model, rec, events, held)
     first = events[0]
     full = simulate(model, rec.t, rec.u, first.u0, first.y0)
