@@ -34,7 +34,7 @@ class Problem:
     free_lags: int
     full: bool = False  # every sample of the span is a fit sample
     linear: tuple[str, ...] = ()  # LINEAR_PARAMS solved inside the residual (the search)
-    bounds: np.ndarray | None = None  # reduceat boundaries in the span (rows, then gaps)
+    bounds: np.ndarray | None = None  # reduceat boundaries in the span (None: no blocks)
     keep: np.ndarray | None = None  # which of the reduced blocks are rows
 
     @property
@@ -54,8 +54,7 @@ class Problem:
         straddle a gap of the mask (:func:`pipeline.lstsq.blocks`), so they are summed in
         place, the gaps as blocks of their own that are dropped (the same sums as of the
         masked copy, without copying the span's columns on every evaluation)."""
-        if self.starts.size == int(self.counts.size) and self.starts.size == int(
-                np.count_nonzero(self.mask)) and self.counts.max(initial=1) == 1:
+        if self.bounds is None:  # a row per fit sample
             return a if self.full else a[self.mask]
         w = np.sqrt(self.counts) if a.ndim == 1 else np.sqrt(self.counts)[:, None]
         return np.add.reduceat(a, self.bounds, axis=0)[self.keep] / w

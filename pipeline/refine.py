@@ -140,7 +140,9 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     y = np.asarray(y, np.float64)
     prob = Problem(structure, t - t[0], np.asarray(u, np.float64) - u_ref, y, mask, starts_,
                     counts, dt, span, initial_state, opt.free_lags,
-                    bool(mask.all()), (), *block_bounds(mask, starts_))
+                    bool(mask.all()), (),
+                    *((None, None) if starts_.size == np.count_nonzero(mask)
+                      else block_bounds(mask, starts_)))
     prob = replace(prob, y=prob.rows(y))
     y_fit = y[mask]
     spec = STRUCTURES[structure]
