@@ -42,7 +42,9 @@ def average_ranks(x: np.ndarray) -> np.ndarray:
 
 
 def spearman(x: np.ndarray, y: np.ndarray) -> float:
-    """Spearman's rho of ``x`` and ``y`` (NaN when either is constant)."""
+    """Spearman's rho of ``x`` and ``y`` (NaN when either is constant or holds a NaN)."""
+    if np.isnan(np.dot(x, x)) or np.isnan(np.dot(y, y)):
+        return math.nan  # scipy's answer; a NaN has no rank
     rx = average_ranks(np.asarray(x, np.float64))
     rx -= rx.mean()
     ry = average_ranks(np.asarray(y, np.float64))

@@ -99,6 +99,8 @@ def _leading(e: np.ndarray, lag: int) -> np.ndarray | None:
     if _ended(rho):
         return rho
     for want in BLOCK_LAGS:
+        if want - 1 > lag and k == lag:
+            return None  # all the lags asked for were taken and the sequence goes on
         k = min(want - 1, lag)
         if 8 * k > n:
             return None  # a short series: the whole FFT is as cheap

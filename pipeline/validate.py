@@ -86,7 +86,7 @@ def ramp_before(model: ProcessModel, first: Event, balance: float | None = None)
 def validation_runs(events: list[Event], validation: list[int]) -> list[tuple[int, int, Event]]:
     """Contiguous runs of validation events as ``(i_start, i_end, first_event)``."""
     runs: list[tuple[int, int, Event]] = []
-    for i in sorted(validation):
+    for i in sorted(set(validation)):  # once each: runs are corrected in place later
         ev = events[i]
         if runs and runs[-1][1] == ev.i_start:
             runs[-1] = (runs[-1][0], ev.i_end, runs[-1][2])

@@ -185,3 +185,11 @@ def test_nearly_collinear_columns_and_femto_units_get_the_svd_answer(monkeypatch
     femto = [superposition.Column(100, 200, 1e-15 * vals, 1e-15)]
     sol = superposition.compressed(femto, y)
     assert sol.coef == pytest.approx([1.0, 3e15], rel=1e-9)
+
+
+def test_an_event_named_twice_is_validated_once():
+    """Runs are corrected in place: an event listed twice must not be corrected twice."""
+    rec, events = _log(n_events=8)
+    once = validate.heldout_residuals(MODELS[0], rec, events, [3, 5])
+    twice = validate.heldout_residuals(MODELS[0], rec, events, [5, 3, 3])
+    assert np.array_equal(once[0], twice[0]) and np.array_equal(once[1], twice[1])
