@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .uncertainty import gram_pinv
+
 #: From this many columns on :func:`solve` takes the sparse KKT route.
 SPARSE_FROM = 150
 #: Unit right-hand sides per sparse solve for the variances (memory: rows x this).
@@ -140,10 +142,7 @@ def compressed(cols: list[Column], y: np.ndarray) -> Solution:
     e = np.empty(n)
     for s0, s1, Z, P in segs:
         e[s0:s1] = y[s0:s1] - Z @ (P @ coef)
-    jtj = M.T @ M
-    scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
-    inv = np.linalg.pinv(jtj / np.outer(scale, scale), rcond=1e-12) / np.outer(scale, scale)
-    return Solution(coef, e, np.diag(inv).copy())
+    return Solution(coef, e, np.diag(gram_pinv(M)).copy())
 
 
 def kkt(cols: list[Column], y: np.ndarray) -> Solution:

@@ -64,10 +64,14 @@ DIRECT_FROM, DIRECT_LAGS = 4096, 32
 BLOCK_LAGS = (1024, 16384)
 
 
+def _pairs(rho: np.ndarray) -> np.ndarray:
+    """Geyer's pair sums ``rho_2m + rho_2m+1`` of the autocorrelations ``rho``."""
+    return rho[: rho.size // 2 * 2].reshape(-1, 2).sum(axis=1)
+
+
 def _ended(rho: np.ndarray) -> bool:
     """Whether the initial positive sequence of ``rho`` ends within it."""
-    pairs = rho[: rho.size // 2 * 2].reshape(-1, 2).sum(axis=1)
-    return bool(np.any(pairs <= 0))
+    return bool(np.any(_pairs(rho) <= 0))
 
 
 def _blockwise_acov(x: np.ndarray, k: int) -> np.ndarray:
@@ -122,7 +126,7 @@ def variance_factor(e: np.ndarray, max_lag: int | None = None) -> float:
     rho = _leading(e, lag) if n >= DIRECT_FROM else None
     if rho is None:
         rho = autocorrelation(e, lag)
-    pairs = rho[: rho.size // 2 * 2].reshape(-1, 2).sum(axis=1)  # rho_2m + rho_2m+1
+    pairs = _pairs(rho)
     stop = np.flatnonzero(pairs <= 0)
     keep = pairs[: stop[0]] if stop.size else pairs
     if keep.size > 1:  # initial monotone sequence: each pair no larger than the one before
@@ -155,11 +159,15 @@ def covariance(jac: np.ndarray, resid: np.ndarray, n_params: int, factor: float
     ``n - f n_params`` for regressors slower than the noise (``n - n_params`` when white),
     so the residual variance is corrected by those degrees of freedom (at least n / 2:
     beyond that the residuals are a misfit, not noise)."""
-    s2 = residual_variance(resid, n_params, factor)
+    return residual_variance(resid, n_params, factor) * factor * gram_pinv(jac)
+
+
+def gram_pinv(jac: np.ndarray) -> np.ndarray:
+    """``(J^T J)^+``, the Gram matrix scaled to a unit diagonal first (so columns of very
+    different sizes do not fall below the pseudo-inverse's relative cut-off)."""
     jtj = jac.T @ jac
     scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
-    inv = np.linalg.pinv(jtj / np.outer(scale, scale), rcond=1e-12) / np.outer(scale, scale)
-    return s2 * factor * inv
+    return np.linalg.pinv(jtj / np.outer(scale, scale), rcond=1e-12) / np.outer(scale, scale)
 
 
 def correlation_length(e: np.ndarray) -> int:
