@@ -6,12 +6,13 @@ state, an integrating structure's input balance)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
 from . import basis
+from .lstsq import block_bounds, blocks
 from .models import STRUCTURES
 
 
@@ -36,6 +37,30 @@ class Problem:
     linear: tuple[str, ...] = ()  # LINEAR_PARAMS solved inside the residual (the search)
     bounds: np.ndarray | None = None  # reduceat boundaries in the span (None: no blocks)
     keep: np.ndarray | None = None  # which of the reduced blocks are rows
+
+    @classmethod
+    def of(cls, t, u, y, structure: str, *, u_ref: float, mask: np.ndarray,
+           initial_state: str, free_lags: int, max_rows: int) -> Problem:
+        """The problem of fitting ``structure`` to ``y`` over the span ``t, u`` (the model
+        starting at the first sample) on the samples of ``mask``, in at most ``max_rows``
+        criterion rows."""
+        t = np.asarray(t, np.float64)
+        base = cls(structure, t - t[0], np.asarray(u, np.float64) - u_ref, np.empty(0),
+                   np.ones(t.size, bool), np.zeros(0, int), np.zeros(0), basis.uniform_step(t),
+                   float(t[-1] - t[0]), initial_state, free_lags)
+        return base.with_mask(mask, y, max_rows)
+
+    def with_mask(self, mask: np.ndarray, y: np.ndarray, max_rows: int) -> Problem:
+        """The same span and model with the criterion over ``mask``'s samples of the span
+        output ``y`` (the span's arrays shared, not copied: one problem per
+        cross-validation fold costs its rows only)."""
+        mask = np.asarray(mask, bool)
+        starts, counts = blocks(mask, max_rows)
+        bounds, keep = ((None, None) if starts.size == np.count_nonzero(mask)
+                        else block_bounds(mask, starts))
+        prob = replace(self, mask=mask, starts=starts, counts=counts, full=bool(mask.all()),
+                       bounds=bounds, keep=keep)
+        return replace(prob, y=prob.rows(np.asarray(y, np.float64)))
 
     @property
     def estimate_state(self) -> bool:
@@ -67,12 +92,23 @@ class Problem:
     def design_rows(self, p: Mapping[str, float]) -> np.ndarray:
         """``rows(design(p))``; at rest the offset is the only nuisance column and its
         rows are computed once (:attr:`offset_rows`)."""
+        return self.reduce(self.span_design(p))
+
+    def span_design(self, p: Mapping[str, float]) -> np.ndarray | list[np.ndarray]:
+        """The span columns :meth:`reduce` makes the design rows of: :meth:`design`, or at
+        rest the forced responses alone (the offset's rows are :attr:`offset_rows`). They
+        do not depend on the mask, so problems that differ only in it share them."""
         if self.estimate_state or self.balance:
-            return self.rows(self.design(p))
+            return self.design(p)
         base = {**p, **dict.fromkeys(self.linear, 0.0)}
         x0 = self.forced(base)
-        xs = [self.rows(self.forced({**base, n: 1.0}) - x0) for n in self.linear]
-        return np.column_stack([self.rows(x0), *xs, self.offset_rows])
+        return [x0, *(self.forced({**base, n: 1.0}) - x0 for n in self.linear)]
+
+    def reduce(self, d: np.ndarray | list[np.ndarray]) -> np.ndarray:
+        """The design rows of :meth:`span_design`'s columns ``d``."""
+        if isinstance(d, np.ndarray):
+            return self.rows(d)
+        return np.column_stack([*(self.rows(x) for x in d), self.offset_rows])
 
     def forced(self, p: Mapping[str, float]) -> np.ndarray:
         """The unit-gain forced response over the span."""

@@ -42,8 +42,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import basis
-from .lstsq import block_bounds, block_means, blocks, project_out, solve
+from .lstsq import block_means, project_out, solve
 from .models import STRUCTURES, ProcessModel
 from .problem import Problem
 from .search import Run, Space, multistart, search_space, snap
@@ -134,16 +133,10 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
         raise ValueError(f"initial state {initial_state!r} for a {structure} model")
     t = np.asarray(t, dtype=np.float64)
     mask = np.ones(t.size, bool) if mask is None else np.asarray(mask, bool)
-    dt = basis.uniform_step(t)
-    span = float(t[-1] - t[0])
-    starts_, counts = blocks(mask, opt.max_rows)
     y = np.asarray(y, np.float64)
-    prob = Problem(structure, t - t[0], np.asarray(u, np.float64) - u_ref, y, mask, starts_,
-                    counts, dt, span, initial_state, opt.free_lags,
-                    bool(mask.all()), (),
-                    *((None, None) if starts_.size == np.count_nonzero(mask)
-                      else block_bounds(mask, starts_)))
-    prob = replace(prob, y=prob.rows(y))
+    prob = Problem.of(t, u, y, structure, u_ref=u_ref, mask=mask, initial_state=initial_state,
+                      free_lags=opt.free_lags, max_rows=opt.max_rows)
+    dt, span = prob.dt, prob.horizon
     y_fit = y[mask]
     spec = STRUCTURES[structure]
     fixed = dict(fixed or {})
@@ -261,7 +254,7 @@ def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nf
             ci[n] = (max(float(lo * space.scale[i]), b_lo), min(float(hi * space.scale[i]), b_hi))
             std[n] = float(sd[i] * space.scale[i])
     params = {n: K if n == "K" else float(p[n]) for n in STRUCTURES[prob.structure].params}
-    params, ci, std = _canonical(prob.structure, params, ci, std)
+    params, ci, std = canonical(prob.structure, params, ci, std)
     model = ProcessModel(prob.structure, params)
     return Refinement(
         model=model, y0=y0, u0=float(u0), ci95=ci, std=std, fitted=fitted, residuals=resid,
@@ -294,7 +287,7 @@ def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _canonical(structure, params, ci, std):
+def canonical(structure, params, ci, std):
     """Order exchangeable time constants (e.g. two lags) so that T1 >= T2: detected by
     swapping them and comparing the step responses, for any structure."""
     if not {"T1", "T2"} <= set(params) or params["T1"] >= params["T2"]:
@@ -321,7 +314,7 @@ def _bootstrap(prob: Problem, space: Space, ref: Refinement, fixed, opt) -> Refi
         p = _multistart(b, space, fixed, [start], 1, opt.max_nfev).params
         p = {**p, **_linear_values(b, {**fixed, **p})}
         draw = {**ref.model.params, **p, "K": float(_solution(b, {**fixed, **p})[1][0])}
-        draws.append(_canonical(prob.structure, draw, {}, {})[0])
+        draws.append(canonical(prob.structure, draw, {}, {})[0])
     a = (1 - opt.level) / 2
     ci = {n: (float(np.quantile([d[n] for d in draws], a)),
               float(np.quantile([d[n] for d in draws], 1 - a))) for n in ref.ci95}
