@@ -79,15 +79,18 @@ def span(events: Sequence[Event], ident: Sequence[int], states: Sequence[str],
 
 def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], structure: str,
                 *, models: Sequence[ProcessModel], states: Sequence[str],
-                exclude: Sequence[int] = (), options: RefineOptions | None = None
+                exclude: Sequence[int] = (), options: RefineOptions | None = None,
+                starts: Sequence[dict[str, float]] | None = None
                 ) -> tuple[Refinement, Span]:
-    """One model of ``structure`` over :func:`span`."""
+    """One model of ``structure`` over :func:`span`, from ``starts`` (default: the
+    candidate starts of ``models``, :func:`pipeline.search.candidate_starts`)."""
     s = span(events, ident, states, exclude)
     sl = slice(s.start, s.stop)
     horizon = float(record.t[s.stop - 1] - record.t[s.start])
     state = structure_state(structure, s.state, events[ident[0]])
     ref = refine(record.t[sl], record.u[sl], record.y[sl], structure, u_ref=s.u_ref,
-                 starts=candidate_starts(structure, models, horizon), mask=s.mask,
+                 starts=candidate_starts(structure, models, horizon) if starts is None
+                 else starts, mask=s.mask,
                  initial_state=state, options=options)
     return replace(ref, initial_state=state if state == "steady" else s.label), s
 
@@ -140,22 +143,26 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
     the joint one), with an exact refit where they do not converge; up to it every fold
     is refitted exactly, the record being short enough and a left-out event a large
     enough share of it for its optimum to lie in another basin (DaISy's lead-lag: the
-    folds' costs 13-36 % above the exact refits' with the steps).
+    folds' costs 13-36 % above the exact refits' with the steps). A stepped fold keeps
+    an integer order (n_lags' n) at the joint fit's: the order is chosen on all the
+    events, which the exact refit of a fold re-chooses.
     Returns the pooled held-out MSE and one entry per fold (events, params, mse, and
     ``refit``: "exact" or "gauss-newton")."""
     held_out = folds_of(ident)
     stepped = len(ident) > MAX_FOLDS
     approx = (_stepped_folds(record, events, ident, joint, held_out, states, options)
               if stepped else [None] * len(held_out))
-    if stepped:  # an exact refit polishes the joint model (a long record's decimated
-        # search has a few samples per event: n_lags' folds lost the order there)
+    if stepped:  # an exact refit polishes the joint model alone (a long record's
+        # decimated search has a few samples per event: n_lags' folds lost the order
+        # there; and every template scored on the whole span is a simulation of it)
         options = replace(options or RefineOptions(), coarse=False)
     folds, errors = [], []
     for held, step in zip(held_out, approx, strict=True):
         if step is None:  # the steps did not converge: the exact refit
             ref, _ = refine_span(record, events, ident, joint.model.structure,
                                  models=[joint.model], states=states, exclude=held,
-                                 options=options)
+                                 options=options,
+                                 starts=[dict(joint.model.params)] if stepped else None)
             model, u0 = ref.model, ref.u0
         else:
             model, u0 = ProcessModel(joint.model.structure, step[0]), step[1]

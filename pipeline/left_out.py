@@ -17,7 +17,8 @@ S. Shahrampour, V. Tarokh, "On optimal generalizability in parametric learning",
 via approximate leave-one-out cross-validation", J. R. Stat. Soc. B 82(4), 2020); here
 the steps go on until the search's own stopping rule holds (:func:`_steps`), so the fold
 model is the refit's to its tolerance, not an approximation of it, as long as the fold's
-optimum lies in the full fit's basin. A fold whose steps do not converge within
+optimum lies in the full fit's basin; an integer order is held at the full fit's (an
+exact refit would choose it again on the fold). A fold whose steps do not converge within
 :data:`MAX_STEPS` returns None and the caller refits it exactly.
 
 The cost is what makes it worth having: the simulated columns at ``z0`` and its
@@ -41,12 +42,16 @@ from .refine import INTEGER_PARAMS, LINEAR_PARAMS, canonical
 from .search import FTOL, Space, search_space
 
 #: Gauss-Newton steps at most before the fold is handed back for an exact refit, and
-#: halvings of a step that raised the cost.
+#: tries of a step that raised the cost (the step, then halved each time).
 MAX_STEPS, MAX_HALVINGS = 8, 4
 #: A direction of the parameters whose standard error exceeds this (in search
 #: coordinates: a factor e for one on log scale) is not determined by the data, and the
 #: steps do not follow it (:func:`_bounded_step`).
 UNDETERMINED = 1.0
+#: A singular value below this fraction of the largest is a direction the residual does
+#: not move along at all (a lead-lag's fractional dead time within a sample, absorbed by
+#: its zero): neither stepped along nor counted as undetermined.
+NULL = 1e-8
 #: Central-difference step in search coordinates on log scale (as
 #: :mod:`pipeline.refine`'s profiled Jacobian), and for the dead time in sample times.
 DIFF_STEP, DELAY_STEP = 1e-5, 1e-3
@@ -74,16 +79,27 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Sequence[np.n
     z0 = space.to_z(params)
     # the first step's Jacobian: the span's columns at z0 and its neighbours, once
     points = _neighbours(space, z0, dt)
-    designs = [[] for _ in folds]
+    designs: list[list[np.ndarray] | None] = [[] for _ in folds]
     for z in points:
         d = base.span_design({**held, **space.from_z(z)})
         for k, f in enumerate(folds):
-            designs[k].append(_residual(f, f.reduce(d)))
+            r = None if designs[k] is None else _guarded(_residual, f, f.reduce(d))
+            designs[k] = None if r is None else [*designs[k], r]
     out = []
     for f, r in zip(folds, designs, strict=True):
-        z = _steps(f, space, held, z0, r, dt)
-        out.append(None if z is None else _model(f, space, held, z, u_ref))
+        z = None if r is None else _guarded(_steps, f, space, held, z0, r, dt)
+        out.append(None if z is None else _guarded(_model, f, space, held, z, u_ref))
     return out
+
+
+def _guarded(fn, *args):
+    """``fn(*args)``, or None where the linear algebra fails (a non-finite design far out
+    in a bound's corner): the caller refits that fold exactly instead of losing the joint
+    fit."""
+    try:
+        return fn(*args)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return None
 
 
 def _neighbours(space: Space, z0: np.ndarray, dt: float) -> list[np.ndarray]:
@@ -123,12 +139,12 @@ def _steps(f: Problem, space: Space, held, z0: np.ndarray, r0: list[np.ndarray],
     the least-squares search does (:data:`pipeline.search.FTOL`), when the cost the
     linearised problem could still gain, or a step gained, is below ``FTOL`` of it (a
     small step is not enough: with coloured noise the steps shrink slowly); a step that
-    raises the cost is halved, and
-    when :data:`MAX_HALVINGS` halvings still do not gain, the last of which moved the cost
-    by less than ``FTOL`` of it, the point is as converged as the search would leave it
-    (its trust region shrinks the same way, ``scipy.optimize.least_squares``' xtol)."""
+    raises the cost is halved, and when it and :data:`MAX_HALVINGS` - 1 halvings still do
+    not gain, the last of which moved the cost by less than ``FTOL`` of it, the point is
+    as converged as the search would leave it (its trust region shrinks the same way,
+    ``scipy.optimize.least_squares``' xtol)."""
     z, r = z0, r0
-    for _ in range(MAX_STEPS):
+    for it in range(MAX_STEPS):
         jac = _jacobian(_neighbours(space, z, dt), r)
         step = _bounded_step(space, z, jac, r[0])
         if step is None:
@@ -148,6 +164,8 @@ def _steps(f: Problem, space: Space, held, z0: np.ndarray, r0: list[np.ndarray],
             return z if abs(cost_new - cost) <= FTOL * cost else None
         if cost - cost_new <= FTOL * cost:
             return z_new
+        if it == MAX_STEPS - 1:
+            return None
         z = z_new
         r = [r_new] + [_residual(f, f.design_rows({**held, **space.from_z(p)}))
                        for p in _neighbours(space, z, dt)[1:]]
@@ -166,21 +184,22 @@ def _bounded_step(space: Space, z: np.ndarray, jac: np.ndarray, r: np.ndarray
     search's trust region follows such a valley, so that fold is refitted exactly."""
     sigma = math.sqrt(float(r @ r) / max(r.size - z.size, 1))
     free = np.ones(z.size, bool)
-    for _ in range(2):
+    for _ in range(z.size + 1):
         step = np.zeros(z.size)
         if free.any():
             u, s, vt = np.linalg.svd(jac[:, free], full_matrices=False)
-            keep = s * UNDETERMINED > sigma
-            gain = u[:, ~keep].T @ r
+            null = s <= NULL * (s[0] if s.size else 0.0)  # the residual does not move
+            keep = ~null & (s * UNDETERMINED > sigma)
+            gain = u[:, ~keep & ~null].T @ r
             if gain @ gain > FTOL * float(r @ r):
                 return None
             step[free] = -vt[keep].T @ ((u[:, keep].T @ r) / s[keep])
         tol = 1e-6 * (space.hi - space.lo)
         out = ((z <= space.lo_z + tol) & (step < 0)) | ((z >= space.hi - tol) & (step > 0))
         if not (out & free).any():
-            return step
+            return np.clip(z + step, space.lo_z, space.hi) - z
         free &= ~out
-    return np.where(free, step, 0.0)
+    return np.zeros(z.size)
 
 
 def _model(f: Problem, space: Space, held, z: np.ndarray, u_ref: float

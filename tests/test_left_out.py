@@ -17,6 +17,9 @@ from pipeline.synth import staircase
 
 FIRST = ProcessModel("first_order", {"K": 2.0, "T": 5.0, "delay": 1.0})
 LAGS = ProcessModel("two_lags", {"K": 1.5, "T1": 4.0, "T2": 1.5, "delay": 0.5})
+NO_DELAY = ProcessModel("first_order", {"K": 2.0, "T": 5.0, "delay": 0.0})
+LEAD = ProcessModel("lead_lag", {"K": 1.5, "Tz": 2.0, "T": 5.0, "delay": 0.5})
+CHAIN = ProcessModel("n_lags", {"K": 2.0, "T": 1.5, "n": 3, "delay": 0.5})
 LEVELS = [3.0, 1.5, 2.5, 1.0, 2.0, 3.5, 1.2, 2.8, 1.8, 3.2, 1.4, 2.6]
 STEP = 30.0  # seconds between the steps
 
@@ -57,6 +60,9 @@ CASES = {  # (plant, fitted structure, noise AR pole, record start, initial stat
     "two lags, white": (LAGS, "two_lags", 0.0, 0.0, "rest"),
     "two lags on a one-lag plant (T2 undetermined)": (FIRST, "two_lags", 0.0, 0.0, "rest"),
     "unsettled start, state estimated": (FIRST, "first_order", 0.0, -12.0, "estimated"),
+    "no dead time (at its bound)": (NO_DELAY, "first_order", 0.0, 0.0, "rest"),
+    "lead-lag (its zero solved linearly)": (LEAD, "lead_lag", 0.0, 0.0, "rest"),
+    "n lags (the order held)": (CHAIN, "n_lags", 0.0, 0.0, "rest"),
 }
 
 
@@ -69,7 +75,8 @@ def test_steps_reach_the_exact_refits_optimum(case, seed):
     sqrt(FTOL rows) standard errors each way, and a dead time's kinks add to that).
     Every fold converges where the data determine every parameter; with a second lag
     below the sample time (a one-lag plant) the steps may hand folds back (None) for an
-    exact refit, never a worse model."""
+    exact refit, never a worse model; so they do, on this plant, for every fold of the
+    lead-lag, whose dead time within a sample trades with its zero (left: measured)."""
     plant, structure, ar, start, state = CASES[case]
     t, u, y = _stairs(plant, seed, ar=ar, start=start)
     opt = RefineOptions(n_starts=1, coarse=False)
@@ -77,7 +84,7 @@ def test_steps_reach_the_exact_refits_optimum(case, seed):
     masks = _fold_masks(t)
     steps = left_out_fits(t, u, y, structure, u_ref=2.0, masks=masks, initial_state=state,
                           params=full.model.params)
-    if structure == plant.structure:
+    if structure == plant.structure and structure != "lead_lag":
         assert all(s is not None for s in steps)
     for mask, step in zip(masks, steps, strict=True):
         if step is None:
