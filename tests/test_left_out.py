@@ -59,6 +59,8 @@ CASES = {  # (plant, fitted structure, noise AR pole, record start, initial stat
     "first order, coloured": (FIRST, "first_order", 0.9, 0.0, "rest"),
     "two lags, white": (LAGS, "two_lags", 0.0, 0.0, "rest"),
     "two lags on a one-lag plant (T2 undetermined)": (FIRST, "two_lags", 0.0, 0.0, "rest"),
+    "second order on a one-lag plant (damping undetermined)": (FIRST, "second_order", 0.0,
+                                                                0.0, "rest"),
     "unsettled start, state estimated": (FIRST, "first_order", 0.0, -12.0, "estimated"),
     "no dead time (at its bound)": (NO_DELAY, "first_order", 0.0, 0.0, "rest"),
     "lead-lag (its zero solved linearly)": (LEAD, "lead_lag", 0.0, 0.0, "rest"),
@@ -149,3 +151,25 @@ def test_cross_validation_beyond_ten_events_steps_and_matches_exact_refits():
         errors.append(heldout_residuals(exact.model, rec, events, f["events"])[1])
     assert mse == pytest.approx(float(np.mean(np.concatenate(errors) ** 2)), rel=1e-4)
     assert joint.metrics["mse_cross_validation"] == pytest.approx(0.03**2, rel=0.25)
+
+
+def test_a_weak_direction_beside_a_strong_one_is_undetermined_not_null():
+    """Singular values 1e7 and 0.05 times the noise (a dead time beside a second-order
+    model's damping on a one-lag plant): the weak direction can still gain 1 % of the
+    cost, so the step is refused (None: exact refit); at 1e-9 of the noise it is a
+    direction the residual does not move along, and the step along the strong one is
+    taken."""
+    from pipeline.left_out import _bounded_step
+    from pipeline.search import search_space
+    rng = np.random.default_rng(0)
+    r = rng.normal(0, 1.0, 600)
+    q, _ = np.linalg.qr(rng.normal(size=(600, 2)))
+    sigma = float(np.sqrt(r @ r / 598))
+    r += 0.1 * np.linalg.norm(r) * q[:, 1] / 0.9  # 1 % of the cost along the weak one
+    space = search_space("first_order", ["T", "delay"], 0.25, 300.0)
+    z = space.to_z({"T": 5.0, "delay": 1.0})
+    weak = np.column_stack([1e7 * sigma * q[:, 0], 0.05 * sigma * q[:, 1]])
+    assert _bounded_step(space, z, weak, r) is None
+    null = np.column_stack([1e7 * sigma * q[:, 0], 1e-9 * sigma * q[:, 1]])
+    step = _bounded_step(space, z, null, r)
+    assert step is not None and step[0] == pytest.approx(-(q[:, 0] @ r) / (1e7 * sigma))
