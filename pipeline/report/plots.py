@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import math
+from collections.abc import Iterable
 
 import matplotlib
 
@@ -101,18 +102,24 @@ def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     return png_of(fig, dpi)
 
 
-def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], title: str,
-            *, events=(), roles=None, marks: list[tuple[float, float, str]] = (),
+def overlay(record: Record, sl: slice, curves: Iterable[tuple[str, np.ndarray]],
+            title: str, *, events=(), roles=None, marks: list[tuple[float, float, str]] = (),
             dpi: int = DPI) -> bytes:
-    """Measured output over ``sl`` with model curves; optional read points ``marks``."""
+    """Measured output over ``sl`` with model curves; optional read points ``marks``.
+    ``curves`` is iterated once, each curve decimated as it comes: a generator holds one
+    record-long curve at a time (a list of eight validation curves over a 10 M-sample
+    record was 640 MB at once)."""
     fig, ax = plt.subplots(figsize=(11, 4.2))
     t = _tu(record, record.t[sl])
     px = columns_of(fig, dpi)
     ax.plot(*decimate(t, record.y[sl], px), color="#222222", lw=1.4, alpha=0.8,
             label="measured")
     styles = ["-", "--", "-.", ":"]
+    n_curves = 0
     for k, (name, yh) in enumerate(curves):
         ax.plot(*decimate(t, yh, px), lw=1.3, ls=styles[(k // 10) % 4], label=name)
+        n_curves = k + 1
+        del yh
     for tm, ym, text in marks:
         tm = _tu(record, tm)
         ax.plot([tm], [ym], "o", ms=4, color="black")
@@ -126,7 +133,7 @@ def overlay(record: Record, sl: slice, curves: list[tuple[str, np.ndarray]], tit
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8,
-              ncol=2 if len(curves) > 12 else 1)
+              ncol=2 if n_curves > 12 else 1)
     return png_of(fig, dpi)
 
 

@@ -191,13 +191,16 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
     rec = res.record
     lo = min(res.events[v].i_start for v in validation)
     hi = max(res.events[v].i_end for v in validation)
-    curves = []
-    for f in fits:
-        y = np.full(hi - lo, np.nan)
-        for sl, sim in validation_simulation(f.model, rec, res.events, validation,
-                                             balance_point(f)):
-            y[sl.start - lo : sl.stop - lo] = sim
-        curves.append((f"{_label(f)} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y))
-    return plots.overlay(rec, slice(lo, hi), curves,
+
+    def curves():  # one at a time (plots.overlay decimates each as it comes)
+        for f in fits:
+            y = np.full(hi - lo, np.nan)
+            for sl, sim in validation_simulation(f.model, rec, res.events, validation,
+                                                 balance_point(f)):
+                y[sl.start - lo : sl.stop - lo] = sim
+            yield f"{_label(f)} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y
+            del y  # before the next curve is allocated
+
+    return plots.overlay(rec, slice(lo, hi), curves(),
                          f"Validation: measured vs {label}, simulated from each run's "
                          "operating point", events=res.events, roles=res.roles, dpi=dpi)
