@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from . import consistency
+from . import consistency, heap
 from .events import EventData
 from .fit import Fit
 from .grade import grade
@@ -103,6 +103,7 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
         est = consistency.event_estimates(record, events, states, structure, fits=fits,
                                           reference=reference, options=opt.refine)
         cons = consistency.Consistency(tuple(est), consistency.static_map(est))
+    heap.release()  # the freed windows and columns, before the record-long checks
     return replace(grade(replace(result, consistency=cons)), recommendation=recommendation)
 
 

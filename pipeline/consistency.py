@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from . import superposition
+from . import heap, superposition
 from .discretise import memory
 from .events import Event, EventData
 from .fit import Fit, Flag
@@ -142,6 +142,7 @@ def event_estimates(record: Record, events: list[Event], states: list[str],
             own[ev.index] = fit
     if not own:
         return []
+    heap.release()  # the refinements' freed windows, before the gains' columns
     gains = step_gains(record, events, reference or next(iter(own.values())).model)
     out = []
     for i, fit in own.items():
