@@ -88,7 +88,8 @@ def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.n
         b, a, lag = iir
         if lag >= n:
             return np.zeros(n)
-        return np.concatenate([np.zeros(lag), signal.lfilter(b, a, du[: n - lag])])
+        x = signal.lfilter(b, a, du[: n - lag])
+        return np.concatenate([np.zeros(lag), x]) if lag else x
     k = np.arange(n, dtype=np.float64) * dt
     h = np.diff(step_delayed(spec, q, k), prepend=0.0)
     big = np.flatnonzero(np.abs(h) > 1e-15 * max(float(np.abs(h).sum()), 1e-300))
@@ -107,11 +108,22 @@ def _iir(spec: Structure, p: dict[str, float], dt: float
     order = a.size - 1
     # h obeys the pole recursion from sample ceil(delay/dt) + 1 on; the head before that
     # (and `order` samples more) is computed exactly from the step response
-    head = int(math.ceil(float(p.get("delay", 0.0)) / dt - 1e-9)) + order + 2
+    delay = float(p.get("delay", 0.0))
+    head = int(math.ceil(delay / dt - 1e-9)) + order + 2
     k = np.arange(head, dtype=np.float64) * dt
-    h = np.diff(step_delayed(spec, p, k), prepend=0.0)
+    # step_delayed(spec, p, k) and its differences (np.diff with 0 prepended), written
+    # out: the same arithmetic without the generic checks, on every residual evaluation
+    # of a refinement (k >= 0 ascending, so its largest magnitude is its last)
+    s = k - delay
+    eps = 1e-12 * max(1.0, abs(delay), float(k[-1]))
+    h = np.zeros_like(s)
+    pos = s >= -eps
+    if pos.any():
+        h[pos] = spec.step(p, np.maximum(s[pos], 0.0))
+    h[1:] -= h[:-1].copy()
     b = np.convolve(h, a)[:head]
-    lag = int(np.argmax(b != 0)) if np.any(b) else head
+    nz = np.flatnonzero(b)
+    lag = int(nz[0]) if nz.size else head
     return b[lag:], a, lag
 
 
@@ -132,8 +144,12 @@ def rational_order(spec: Structure, p: dict[str, float]) -> int | None:
     table depends on its dimensionless parameters only (the order n), the time constants
     scale the coefficients; so it is cached on those (an integer-order equal-lag
     denominator is expensive to expand)."""
-    key = (spec.name, tuple((k, float(p[k])) for k in spec.dynamics
-                            if k in PARAMETERS and PARAMETERS[k].kind == "dimensionless"))
+    names = _DIMENSIONLESS.get(spec.name)
+    if names is None:
+        names = _DIMENSIONLESS[spec.name] = tuple(
+            k for k in spec.dynamics if k in PARAMETERS and PARAMETERS[k].kind ==
+            "dimensionless")
+    key = (spec.name, tuple((k, float(p[k])) for k in names))
     if key not in _ORDERS:
         den = _denominator(spec, p)
         if len(_ORDERS) > 4096:
@@ -143,6 +159,7 @@ def rational_order(spec: Structure, p: dict[str, float]) -> int | None:
 
 
 _ORDERS: dict[tuple, int | None] = {}
+_DIMENSIONLESS: dict[str, tuple[str, ...]] = {}  # a structure's dimensionless parameters
 
 
 def _pole_polynomial(spec: Structure, p: dict[str, float], dt: float) -> np.ndarray | None:

@@ -45,7 +45,8 @@ def block_bounds(mask: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.n
 
 def solve(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:
     """Least-squares coefficients of ``a c = y`` (columns scaled, rank-revealing SVD)."""
-    scale = np.linalg.norm(a, axis=0)
+    scale = np.sqrt(np.add.reduce(a * a, axis=0))  # numpy.linalg.norm(a, axis=0), without
+    # its dispatch (a fifth of this solve's time; on every residual evaluation)
     scale[scale == 0] = 1.0
     c, _, rank, _ = np.linalg.lstsq(a / scale, y, rcond=1e-9)
     return c / scale, int(rank)

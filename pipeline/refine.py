@@ -128,6 +128,35 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     defaults`), ``fixed`` parameters are held. Pure: numpy arrays in, a
     :class:`Refinement` out."""
     opt = options or RefineOptions()
+    o = _optimum(t, u, y, structure, u_ref, starts, mask, initial_state, fixed, opt)
+    y_fit = np.asarray(y, np.float64)[o.search.mask]
+    ref = _finish(o.problem, o.space, o.params, y_fit, initial_state, u_ref, opt, o.nfev,
+                  o.runs)
+    if opt.bootstrap > 0:
+        ref = _bootstrap(o.search, o.searched, ref, dict(fixed or {}), opt)
+    return ref
+
+
+@dataclass(frozen=True)
+class _Optimum:
+    """Where the search of :func:`refine` ended: the problem (``search``: with its
+    :data:`LINEAR_PARAMS` solved inside the residual), the parameter space (``searched``:
+    less those), the parameters, residual evaluations and starts tried."""
+
+    problem: Problem
+    search: Problem
+    space: Space
+    searched: Space
+    params: dict[str, float]
+    nfev: int
+    runs: int
+
+
+def _optimum(t, u, y, structure: str, u_ref: float, starts, mask, initial_state: str,
+             fixed, opt: RefineOptions) -> _Optimum:
+    """The search of :func:`refine`, without the intervals: the parameters at the optimum
+    (snapped to a bound within its tolerance, the linear ones from their solve); a long
+    window coarse to fine (the optimum on a decimated copy, polished on the whole)."""
     if initial_state not in ("rest", "estimated", "steady") or (
             initial_state == "steady" and not STRUCTURES[structure].integrating):
         raise ValueError(f"initial state {initial_state!r} for a {structure} model")
@@ -137,7 +166,6 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     prob = Problem.of(t, u, y, structure, u_ref=u_ref, mask=mask, initial_state=initial_state,
                       free_lags=opt.free_lags, max_rows=opt.max_rows)
     dt, span = prob.dt, prob.horizon
-    y_fit = y[mask]
     spec = STRUCTURES[structure]
     fixed = dict(fixed or {})
     names = [n for n in spec.params if n != "K" and n not in fixed]
@@ -149,17 +177,22 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     ints = [n for n in names if n in INTEGER_PARAMS]
     m = math.ceil(t.size / opt.max_rows)
     if dt is not None and m > 2 and opt.coarse:
-        # coarse to fine: the search on a decimated copy, the exact problem polished
-        c = refine(t[::m], block_means(np.asarray(u, np.float64), m), y[::m], structure,
-                   u_ref=u_ref, starts=starts, mask=mask[::m], initial_state=initial_state,
-                   fixed=fixed, options=replace(opt, bootstrap=0, coarse=False))
-        start = {n: c.model.params[n] for n in names}
+        # coarse to fine: the search on a decimated copy (its optimum only: the intervals
+        # of the coarse fit would be thrown away), the exact problem polished from it
+        c = _optimum(t[::m], block_means(np.asarray(u, np.float64), m), y[::m], structure,
+                     u_ref, starts, mask[::m], initial_state, fixed,
+                     replace(opt, bootstrap=0, coarse=False))
+        # the order of exchangeable lags as the coarse fit's model has them (the gain
+        # does not enter the comparison of the step responses)
+        params = {n: 1.0 if n == "K" else float(c.params[n]) for n in spec.params}
+        params = canonical(structure, params, {}, {})[0]
+        start = {n: params[n] for n in names}
         if ints:
             best = _integer(search, searched, fixed, start, ints, dt_eff, span, opt,
                             polish=True)
         else:
             best = _multistart(search, searched, fixed, [start], 1, opt.max_nfev)
-        nfev, runs = best.nfev + c.nfev, c.n_runs
+        nfev, runs = best.nfev + c.nfev, c.runs
     else:
         best = _multistart(search, searched, fixed, starts, opt.n_starts, opt.max_nfev)
         nfev, runs = best.nfev, best.runs
@@ -168,10 +201,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
             nfev += best.nfev
     p = {**fixed, **snap(space, {**best.params, **_linear_values(search, {**fixed,
                                                                           **best.params})})}
-    ref = _finish(prob, space, p, y_fit, initial_state, u_ref, opt, nfev, runs)
-    if opt.bootstrap > 0:
-        ref = _bootstrap(search, searched, ref, fixed, opt)
-    return ref
+    return _Optimum(prob, search, space, searched, p, nfev, runs)
 
 
 def _solution(prob: Problem, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:

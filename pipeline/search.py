@@ -207,9 +207,20 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
     ``starts`` (parameters a start lacks: :func:`defaults`): :data:`PILOT_NFEV`
     iterations from each, then the best one to convergence. ``fun`` returns the residual
     vector at search coordinates ``z``."""
+    # every run starts where a residual was already evaluated (a candidate's ranking, the
+    # pilot's last point), and least_squares evaluates it again: the same z gives the
+    # same residual, so it is kept (read-only) and not simulated twice
+    seen_r: dict[bytes, np.ndarray] = {}
+
     def safe(z):
-        r = fun(z)
-        return r if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
+        key = np.asarray(z, np.float64).tobytes()
+        r = seen_r.get(key)
+        if r is None:
+            r = fun(z)
+            r = r if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
+            r.setflags(write=False)
+            seen_r[key] = r
+        return r
 
     tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)
     seen: dict[tuple, np.ndarray] = {}  # starts within a tenth of the distinct step: one
