@@ -104,7 +104,9 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
                                           reference=reference, options=opt.refine)
         cons = consistency.Consistency(tuple(est), consistency.static_map(est))
     heap.release()  # the freed windows and columns, before the record-long checks
-    return replace(grade(replace(result, consistency=cons)), recommendation=recommendation)
+    graded = grade(replace(result, consistency=cons))
+    heap.release()  # and what the checks freed, before the caller's next stage (a report)
+    return replace(graded, recommendation=recommendation)
 
 
 def _event_fits(record: Record, events, i: int, validation: list[int], states: list[str],

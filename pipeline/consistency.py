@@ -180,6 +180,14 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
         else float(u[max(starts[0] - 1, 0)])
     dt = record.sample_time
     mem = memory(unit, dt) if dt is not None else None
+    def response(a: int, b: int, stop: int, before: float):
+        def make() -> np.ndarray:  # simulated when the solver needs it (twice: memory)
+            d = np.empty(stop - a)
+            d[: b - a] = u[a:b] - before
+            d[b - a:] = d[b - a - 1] if b > a else 0.0
+            return simulate(unit, t[a:stop], d, 0.0, 0.0, dt=dt) if stop > a else d
+        return make
+
     cols = []
     for j in range(len(events)):
         a, b = starts[j], starts[j + 1]
@@ -187,11 +195,8 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
         # the column is 0 before its event, settled on the held increment from `memory`
         # samples after its window on: only [a, stop) is simulated
         stop = t.size if mem is None else min(t.size, b + mem)
-        d = np.empty(stop - a)
-        d[: b - a] = u[a:b] - before
-        d[b - a:] = d[b - a - 1] if b > a else 0.0
-        cols.append(Column(a, stop, simulate(unit, t[a:stop], d, 0.0, 0.0, dt=dt)
-                           if stop > a else np.empty(0), float(d[-1]) if d.size else 0.0))
+        delta = float(u[b - 1] - before) if stop > a and b > a else 0.0  # d[-1] of make()
+        cols.append(Column(a, stop, None, delta, response(a, b, stop, before)))
     delta = [c.delta for c in cols]
     sol = superposition.solve(cols, y)
     coef, e, p = sol.coef, sol.residuals, len(cols) + 1

@@ -19,12 +19,12 @@ from dataclasses import replace
 
 import numpy as np
 
+from .closed_loop import closed_loop_flag
 from .consistency import gain_flags
 from .events import Event
 from .fit import Fit, Flag
 from .methods import REGISTRY
 from .models import PARAMETERS
-from .ranks import spearman
 from .record import Record, in_time_unit
 from .results import RecordResult
 
@@ -71,10 +71,6 @@ MISFIT_RATIO = 3.0
 WIDE_CI = 0.5
 #: A drift before the step above this share of the step's change biases the gain visibly.
 BASELINE_DRIFT = 0.02
-#: Closed loop: the lag-0 rank correlation of input and output increments (times the gain's
-#: sign) below minus this gives a controller away (see :func:`closed_loop_flag`).
-CLOSED_LOOP_CORR = 0.3
-CLOSED_LOOP_MIN_SAMPLES = 30
 
 
 def verdict_of(flags: tuple[Flag, ...] | list[Flag]) -> str:
@@ -137,38 +133,6 @@ def record_flags(result: RecordResult) -> tuple[Flag, ...]:
             units.get("input") else ""
         out.extend(gain_flags(list(result.consistency.estimates), unit))
     return tuple(out)
-
-
-def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
-    """``closed_loop_suspected`` when the input's sample-to-sample changes follow the
-    output's changes of the same sample, against them.
-
-    A controller computes u[k] from y[k]: its increments answer the output's at lag 0
-    (proportional action on the measured output and its noise), with the sign of -K for
-    negative feedback. In an open-loop test the input is set from outside and the plant
-    answers it a sample later at the earliest (zero-order hold), so the lag-0 rank
-    correlation of (du, dy) is near 0 (|rho| < 0.05 measured on step tests with input and
-    output noise; -0.8 to -1.0 on PI loops with and without measurement noise).
-    """
-    du, dy = np.diff(record.u), np.diff(record.y)
-    moving = (du != 0) | (dy != 0)
-    du, dy = (du, dy) if moving.all() else (du[moving], dy[moving])  # no needless copies
-    if du.size < CLOSED_LOOP_MIN_SAMPLES or np.std(du) == 0 or np.std(dy) == 0 \
-            or np.std(record.u) == 0 or np.std(record.y) == 0:
-        return None
-    # the gain's sign from the levels: in steady state y follows K u, open or closed loop
-    cov = float((record.u - record.u.mean()) @ (record.y - record.y.mean()))  # corrcoef's
-    sign = float(np.sign(cov)) or 1.0  # sign, without its stacked copies of u and y
-    rho = spearman(du, dy)  # scipy's spearmanr took 1.2 GB at 10 M
-    if not rho * sign < -CLOSED_LOOP_CORR:
-        return None
-    return Flag(
-        "closed_loop_suspected",
-        f"The input's changes follow the output's, against them (rank correlation "
-        f"{rho:+.2f} over {int(du.size)} samples): the input is set by a controller, "
-        "not by a step test. Step-response readings assume the input holds its level, and "
-        "a model identified in closed loop can be biased.",
-        {"correlation": rho, "samples": int(du.size)})
 
 
 # -- fit level ---------------------------------------------------------------------------

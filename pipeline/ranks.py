@@ -2,8 +2,9 @@
 
 ``scipy.stats.spearmanr`` stacks both series, ranks them with ``apply_along_axis`` and
 keeps several record-long temporaries alive at once: about 1.2 GB for the 10 M
-sample-to-sample changes of a plant-historian log (:func:`pipeline.grade.closed_loop_flag`),
-five times the record's own arrays (issue 14). Here each series is ranked on its own
+sample-to-sample changes of a plant-historian log
+(:func:`pipeline.closed_loop.closed_loop_flag`), five times the record's own arrays
+(issue 14). Here each series is ranked on its own
 (average ranks for ties, as ``scipy.stats.rankdata(method="average")``) and the
 temporaries are dropped as soon as they are used; the statistic is the Pearson
 correlation of the ranks (Spearman's rho with ties: Kendall & Gibbons, Rank Correlation
@@ -16,38 +17,78 @@ import math
 
 import numpy as np
 
+#: Samples per chunk where a record-long temporary is avoided (8 MB of float64).
+CHUNK = 1 << 20
+
 
 def average_ranks(x: np.ndarray) -> np.ndarray:
-    """Ranks 1..n of ``x``, ties given the mean of the ranks they span (int32 positions
-    and no per-sample group labels: three record-long temporaries at most)."""
+    """Ranks 1..n of ``x``, ties given the mean of the ranks they span (as
+    ``scipy.stats.rankdata(method="average")``): :func:`ranks_of` :func:`sort_groups`."""
+    return ranks_of(*sort_groups(x))
+
+
+def sort_groups(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(order, new)``: the stable sort order of ``x`` (int32 positions) and where a
+    sorted value differs from the one before it, compared a chunk at a time; all that
+    :func:`ranks_of` needs, so a caller can drop ``x`` before the ranks are made."""
     n = x.size
     order = np.argsort(x, kind="stable")
     if n < 2**31:
         order = order.astype(np.int32)
-    xs = x[order]
     new = np.empty(n, bool)
     new[:1] = True
-    np.not_equal(xs[1:], xs[:-1], out=new[1:])
-    del xs
-    starts = np.flatnonzero(new)
-    del new
+    for a in range(0, n - 1, CHUNK):
+        b = min(a + CHUNK, n - 1)
+        xs = x[order[a : b + 1]]
+        np.not_equal(xs[1:], xs[:-1], out=new[a + 1 : b + 1])
+    return order, new
+
+
+def ranks_of(order: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """The average ranks from :func:`sort_groups`, the ranks' arange and each position's
+    group of ties made a chunk at a time (the ranks are the one record-long array made;
+    the same values as whole-array passes)."""
+    n = order.size
     ranks = np.empty(n)
-    if starts.size == n:  # no ties (a noisy output's changes): the positions themselves
-        ranks[order] = np.arange(1.0, n + 1.0)
+    if np.count_nonzero(new) == n:  # no ties (a noisy output's changes): the positions
+        for a in range(0, n, CHUNK):
+            b = min(a + CHUNK, n)
+            ranks[order[a:b]] = np.arange(a + 1.0, b + 1.0)
         return ranks
+    starts = np.flatnonzero(new)
     ends = np.r_[starts[1:], n]
     mean_rank = (starts + ends + 1) / 2.0  # (first + last) / 2, 1-based
-    ranks[order] = np.repeat(mean_rank, ends - starts)
+    for a in range(0, n, CHUNK):  # np.repeat(mean_rank, ends - starts), a chunk at a time
+        b = min(a + CHUNK, n)
+        group = np.searchsorted(starts, np.arange(a, b), side="right") - 1
+        ranks[order[a:b]] = mean_rank[group]
     return ranks
+
+
+def centred(ranks: np.ndarray) -> np.ndarray:
+    """``ranks`` less their mean, in place."""
+    ranks -= ranks.mean()
+    return ranks
+
+
+def centred_ranks(x: np.ndarray) -> np.ndarray:
+    """:func:`average_ranks` less their mean."""
+    return centred(average_ranks(np.asarray(x, np.float64)))
+
+
+def rank_correlation(rx: np.ndarray, ry: np.ndarray) -> float:
+    """The Pearson correlation of two :func:`centred_ranks` (NaN when one is constant)."""
+    den = math.sqrt(float(rx @ rx) * float(ry @ ry))
+    return float(rx @ ry) / den if den > 0 else math.nan
+
+
+def has_nan(x: np.ndarray) -> bool:
+    """Whether ``x`` holds a NaN (a NaN has no rank: scipy's answer is NaN)."""
+    return bool(np.isnan(np.dot(x, x)))
 
 
 def spearman(x: np.ndarray, y: np.ndarray) -> float:
     """Spearman's rho of ``x`` and ``y`` (NaN when either is constant or holds a NaN)."""
-    if np.isnan(np.dot(x, x)) or np.isnan(np.dot(y, y)):
-        return math.nan  # scipy's answer; a NaN has no rank
-    rx = average_ranks(np.asarray(x, np.float64))
-    rx -= rx.mean()
-    ry = average_ranks(np.asarray(y, np.float64))
-    ry -= ry.mean()
-    den = math.sqrt(float(rx @ rx) * float(ry @ ry))
-    return float(rx @ ry) / den if den > 0 else math.nan
+    if has_nan(x) or has_nan(y):
+        return math.nan
+    return rank_correlation(centred_ranks(x), centred_ranks(y))

@@ -26,6 +26,7 @@ columns still moving there. Two exact solvers use that:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,12 +45,52 @@ OVERLAP, MAX_INFLATION = 8, 1e10
 @dataclass(frozen=True)
 class Column:
     """A regressor: 0 before ``start``, ``values`` on ``[start, stop)``, ``delta`` from
-    ``stop`` to the end of the record."""
+    ``stop`` to the end of the record. ``values`` None: ``make()`` gives them, and the
+    solvers make them when a segment needs them and forget them once the column has
+    settled (:class:`_Values`)."""
 
     start: int
     stop: int
-    values: np.ndarray
+    values: np.ndarray | None
     delta: float
+    make: Callable[[], np.ndarray] | None = None
+
+
+class _Values:
+    """The columns' values for one solve: given ones as they are, the others made on
+    demand, kept while their column moves and dropped when it settles (a pass over the
+    segments in order holds the few columns moving at once, not all of them: 2000 steps'
+    columns of a 10 M-sample log were 530 MB). A column made again gives the same
+    values; its squared norm is kept from the first time."""
+
+    def __init__(self, cols: list[Column]):
+        self.cols = cols
+        self.kept: dict[int, np.ndarray] = {}
+        self.norm2: dict[int, float] = {}
+
+    def __call__(self, j: int) -> np.ndarray:
+        c = self.cols[j]
+        if c.values is not None:
+            return c.values
+        v = self.kept.get(j)
+        if v is None:
+            v = self.kept[j] = c.make()
+            self.norm2.setdefault(j, float(v @ v))
+        return v
+
+    def settled(self, js) -> None:
+        """Forget the values of the columns ``js`` (they have reached their stop)."""
+        for j in js:
+            self.kept.pop(j, None)
+
+    def squared_norm(self, j: int) -> float:
+        c = self.cols[j]
+        if c.values is not None:
+            return float(c.values @ c.values)
+        if j not in self.norm2:
+            self(j)
+            self.settled([j])
+        return self.norm2[j]
 
 
 @dataclass(frozen=True)
@@ -69,22 +110,23 @@ def solve(cols: list[Column], y: np.ndarray) -> Solution:
     in), and its answer kept only when no gain is nearly collinear with the others
     (variance inflation below :data:`MAX_INFLATION`); else the compressed SVD solve,
     which gives the minimum-norm answer there."""
+    values = _Values(cols)
     if len(cols) >= SPARSE_FROM and all(c.stop > 0 for c in cols) \
             and sum(c.stop - c.start for c in cols) <= OVERLAP * y.size:  # l_0 is c
         try:
-            sol = kkt(cols, y)
-            if np.max(sol.unscaled * _norms2(cols, y.size)) < MAX_INFLATION:
+            sol = kkt(cols, y, values)
+            if np.max(sol.unscaled * _norms2(cols, y.size, values)) < MAX_INFLATION:
                 return sol
         except (RuntimeError, np.linalg.LinAlgError):
             pass  # singular (collinear columns): the SVD of the compressed problem copes
-    return compressed(cols, y)
+    return compressed(cols, y, values)
 
 
-def _norms2(cols: list[Column], n: int) -> np.ndarray:
+def _norms2(cols: list[Column], n: int, values: _Values) -> np.ndarray:
     """Squared norms of ``[1, cols...]`` over the ``n`` samples: with the unscaled
     variances, each coefficient's variance inflation factor ``1 / (1 - R^2)``."""
-    return np.array([float(n), *(float(c.values @ c.values) + c.delta**2 * (n - c.stop)
-                                 for c in cols)])
+    return np.array([float(n), *(values.squared_norm(j) + c.delta**2 * (n - c.stop)
+                                 for j, c in enumerate(cols))])
 
 
 def _segments(cols: list[Column], n: int):
@@ -106,26 +148,29 @@ def _segments(cols: list[Column], n: int):
             yield s0, s1, settling, sorted(active)
 
 
-def _block(cols: list[Column], s0: int, s1: int, moving: list[int]) -> np.ndarray:
+def _block(values: _Values, s0: int, s1: int, moving: list[int]) -> np.ndarray:
     """``[1, moving columns]`` over the samples ``[s0, s1)``."""
     Z = np.empty((s1 - s0, 1 + len(moving)))
     Z[:, 0] = 1.0
     for k, j in enumerate(moving):
-        c = cols[j]
-        Z[:, k + 1] = c.values[s0 - c.start: s1 - c.start]
+        start = values.cols[j].start
+        Z[:, k + 1] = values(j)[s0 - start: s1 - start]
     return Z
 
 
-def compressed(cols: list[Column], y: np.ndarray) -> Solution:
+def compressed(cols: list[Column], y: np.ndarray, values: _Values | None = None
+               ) -> Solution:
     """The per-segment QR and one stacked SVD solve (see the module docstring)."""
+    values = values or _Values(cols)
     n, p = y.size, len(cols) + 1
     blocks, rhs, segs = [], [], []
     const = np.zeros(p)
     const[0] = 1.0
     for s0, s1, settling, moving in _segments(cols, n):
+        values.settled(settling)
         for j in settling:
             const[j + 1] = cols[j].delta
-        Z = _block(cols, s0, s1, moving)
+        Z = _block(values, s0, s1, moving)
         Q, R = np.linalg.qr(Z)
         P = np.zeros((1 + len(moving), p))
         P[0] = const
@@ -145,12 +190,13 @@ def compressed(cols: list[Column], y: np.ndarray) -> Solution:
     return Solution(coef, e, np.diag(gram_pinv(M)).copy())
 
 
-def kkt(cols: list[Column], y: np.ndarray) -> Solution:
+def kkt(cols: list[Column], y: np.ndarray, values: _Values | None = None) -> Solution:
     """The sparse equality-constrained normal equations (see the module docstring);
     raises RuntimeError when the system is singular."""
     from scipy import sparse
     from scipy.sparse.linalg import splu
 
+    values = values or _Values(cols)
     n, m = y.size, len(cols)
     segs = list(_segments(cols, n))
     g_count = len(segs)
@@ -158,15 +204,16 @@ def kkt(cols: list[Column], y: np.ndarray) -> Solution:
     rows, cc, vals = [], [], []
     b = np.zeros(size)
     blocks = []
-    for g, (s0, s1, _, moving) in enumerate(segs):
-        Z = _block(cols, s0, s1, moving)
+    for g, (s0, s1, settling, moving) in enumerate(segs):
+        values.settled(settling)
+        Z = _block(values, s0, s1, moving)
         idx = np.array([g, *(g_count + j for j in moving)])
         gram = Z.T @ Z
         rows.append(np.repeat(idx, idx.size))
         cc.append(np.tile(idx, idx.size))
         vals.append(gram.ravel())
         b[idx] += Z.T @ y[s0:s1]
-        blocks.append((s0, s1, moving, idx))  # Z built again for the residuals: memory
+        blocks.append((s0, s1, settling, moving, idx))  # Z built again for the residuals
     for g in range(1, g_count):  # l_g - l_(g-1) - sum K_j delta_j (settling at g) = 0
         r = g_count + m + g - 1
         new = segs[g][2]
@@ -182,8 +229,9 @@ def kkt(cols: list[Column], y: np.ndarray) -> Solution:
     if not np.all(np.isfinite(x)):
         raise RuntimeError("the KKT system is singular")
     e = np.empty(n)
-    for s0, s1, moving, idx in blocks:
-        e[s0:s1] = y[s0:s1] - _block(cols, s0, s1, moving) @ x[idx]
+    for s0, s1, settling, moving, idx in blocks:
+        values.settled(settling)
+        e[s0:s1] = y[s0:s1] - _block(values, s0, s1, moving) @ x[idx]
     coef = np.concatenate([[x[0]], x[g_count: g_count + m]])
     want = np.array([0, *range(g_count, g_count + m)])
     unscaled = np.empty(want.size)

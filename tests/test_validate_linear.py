@@ -31,9 +31,9 @@ def _simulated_lengths(monkeypatch) -> list[int]:
     lengths: list[int] = []
     real = validate.forced_response
 
-    def counting(structure, p, t, du, dt=None):
+    def counting(structure, p, t, du, dt=None, **kw):
         lengths.append(t.size)
-        return real(structure, p, t, du, dt)
+        return real(structure, p, t, du, dt, **kw)
 
     monkeypatch.setattr(validate, "forced_response", counting)
     return lengths
@@ -111,8 +111,8 @@ def test_step_gains_without_the_dense_matrix(model, sparse, monkeypatch):
     for name in ("compressed", "kkt"):
         real = getattr(superposition, name)
 
-        def spy(cols, y, real=real, name=name):
-            out = real(cols, y)
+        def spy(cols, y, *values, real=real, name=name):
+            out = real(cols, y, *values)
             used.append(name)
             return out
 

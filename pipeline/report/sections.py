@@ -194,10 +194,15 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
 
     def curves():  # one at a time (plots.overlay decimates each as it comes)
         for f in fits:
-            y = np.full(hi - lo, np.nan)
-            for sl, sim in validation_simulation(f.model, rec, res.events, validation,
-                                                 balance_point(f)):
-                y[sl.start - lo : sl.stop - lo] = sim
+            sims = validation_simulation(f.model, rec, res.events, validation,
+                                         balance_point(f))
+            if len(sims) == 1 and sims[0][0] == slice(lo, hi):
+                y = sims[0][1]  # one run over the whole span: the curve itself
+            else:
+                y = np.full(hi - lo, np.nan)
+                for sl, sim in sims:
+                    y[sl.start - lo : sl.stop - lo] = sim
+            del sims
             yield f"{_label(f)} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y
             del y  # before the next curve is allocated
 
