@@ -27,6 +27,10 @@ def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
     correlation of (du, dy) is near 0 (|rho| < 0.05 measured on step tests with input and
     output noise; -0.8 to -1.0 on PI loops with and without measurement noise).
     """
+    # the gain's sign from the levels: in steady state y follows K u, open or closed loop
+    # (before the changes are made: its two centred copies beside them were the peak)
+    cov = float((record.u - record.u.mean()) @ (record.y - record.y.mean()))  # corrcoef's
+    sign = float(np.sign(cov)) or 1.0  # sign, without its stacked copies of u and y
     du, dy = np.diff(record.u), np.diff(record.y)
     moving = (du != 0) | (dy != 0)
     every = bool(moving.all())
@@ -35,9 +39,6 @@ def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
     if samples < CLOSED_LOOP_MIN_SAMPLES or np.std(du) == 0 or np.std(dy) == 0 \
             or np.std(record.u) == 0 or np.std(record.y) == 0:
         return None
-    # the gain's sign from the levels: in steady state y follows K u, open or closed loop
-    cov = float((record.u - record.u.mean()) @ (record.y - record.y.mean()))  # corrcoef's
-    sign = float(np.sign(cov)) or 1.0  # sign, without its stacked copies of u and y
     # Spearman's rho with one series' changes held at a time, each dropped once sorted:
     # du sorted and ranked, then dy made again, sorted and ranked (scipy's spearmanr took
     # 1.2 GB at 10 M samples; both series and both rankings at once 650 MB)

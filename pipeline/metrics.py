@@ -25,3 +25,21 @@ def fit_percent(y, y_hat) -> float:
     if y.size == 0 or den == 0:
         return float("nan")
     return float(100.0 * (1.0 - np.linalg.norm(y - y_hat) / den))
+
+
+def fit_percent_of_errors(y: np.ndarray, e: np.ndarray) -> float:
+    """``fit_percent(y, y - e)``, the same number, with two record-long copies fewer: the
+    residual ``y - (y - e)`` as that computes it, then ``y`` (a fresh array the caller
+    gives up) centred in place (a long validation's held-out samples: 80 MB each at
+    10 M samples)."""
+    if y.size == 0:
+        return float("nan")
+    r = np.subtract(y, e)
+    np.subtract(y, r, out=r)
+    num = np.sqrt(r.dot(r))
+    del r
+    y -= y.mean()
+    den = np.sqrt(y.dot(y))
+    if den == 0:
+        return float("nan")
+    return float(100.0 * (1.0 - num / den))

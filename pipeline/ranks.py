@@ -45,23 +45,32 @@ def sort_groups(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def ranks_of(order: np.ndarray, new: np.ndarray) -> np.ndarray:
-    """The average ranks from :func:`sort_groups`, the ranks' arange and each position's
-    group of ties made a chunk at a time (the ranks are the one record-long array made;
-    the same values as whole-array passes)."""
+    """The average ranks from :func:`sort_groups`, each position's group of ties (its
+    first and last sorted position) found and the ranks filled a chunk at a time: the
+    ranks are the one record-long array made, beside the groups' starts in the order's
+    integer type (the whole-array ``starts``, ``ends`` and ``(starts + ends + 1) / 2``
+    were 320 MB at 10 M samples); the same values as whole-array passes."""
     n = order.size
     ranks = np.empty(n)
-    if np.count_nonzero(new) == n:  # no ties (a noisy output's changes): the positions
+    count = int(np.count_nonzero(new))
+    if count == n:  # no ties (a noisy output's changes): the positions
         for a in range(0, n, CHUNK):
             b = min(a + CHUNK, n)
             ranks[order[a:b]] = np.arange(a + 1.0, b + 1.0)
         return ranks
-    starts = np.flatnonzero(new)
-    ends = np.r_[starts[1:], n]
-    mean_rank = (starts + ends + 1) / 2.0  # (first + last) / 2, 1-based
-    for a in range(0, n, CHUNK):  # np.repeat(mean_rank, ends - starts), a chunk at a time
+    starts = np.empty(count + 1, order.dtype)  # each group's first position, then n
+    k = 0
+    for a in range(0, n, CHUNK):
+        first = np.flatnonzero(new[a : a + CHUNK])
+        starts[k : k + first.size] = first + a
+        k += first.size
+    starts[count] = n
+    for a in range(0, n, CHUNK):
         b = min(a + CHUNK, n)
-        group = np.searchsorted(starts, np.arange(a, b), side="right") - 1
-        ranks[order[a:b]] = mean_rank[group]
+        group = np.searchsorted(starts[:count], np.arange(a, b, dtype=order.dtype),
+                                side="right") - 1
+        first, end = starts[group].astype(np.int64), starts[group + 1].astype(np.int64)
+        ranks[order[a:b]] = (first + end + 1) / 2.0  # (first + last) / 2, 1-based
     return ranks
 
 

@@ -35,7 +35,7 @@ import numpy as np
 from .basis import forced_response
 from .discretise import memory
 from .events import Event
-from .metrics import fit_percent, ise, mse
+from .metrics import fit_percent_of_errors, ise, mse
 from .models import ProcessModel
 from .record import Record
 from .uncertainty import variance_factor
@@ -249,7 +249,7 @@ def score(model: ProcessModel, record: Record, events: list[Event], ident: Event
     idx, e = heldout_residuals(model, record, events, validation, balance)
     if idx.size:
         metrics["mse_validation"] = float(np.mean(e * e))  # mse(e, 0 * e): the same number
-        metrics["fit_percent"] = fit_percent(record.y[idx], record.y[idx] - e)
+        metrics["fit_percent"] = fit_percent_of_errors(record.y[idx], e)
     return metrics
 
 
