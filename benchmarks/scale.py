@@ -19,9 +19,13 @@ as CSV (``time,u,y``). Then, interleaved, ``--reps`` times:
 * **cli** (only for ``--cli-sizes``): ``pipeline identify FILE --method all --events all``
   as a user runs it, whole-process CPU.
 
-Peak memory is the process's maximum resident set (``wait4``); the pipeline's is also
-given net of the interpreter and imports (its RSS before loading). Raw arrays are
-``3 x 8 x samples`` bytes. Growth exponents compare consecutive sizes:
+Peak memory is the process's own high-water resident set (``VmHWM`` of
+``/proc/self/status`` at its end, for the CLI run ``wait4``'s maximum resident set); the
+pipeline's is also given net of the interpreter and imports (its resident set before
+loading, ``VmRSS``). The logs are written by a child process: ``ru_maxrss`` carries the
+forking process's resident set across ``exec`` on Linux, so a driver that had written a
+10 M-sample log itself (about 560 MB) made every worker's imports look that large.
+Raw arrays are ``3 x 8 x samples`` bytes. Growth exponents compare consecutive sizes:
 ``log(cost2 / cost1) / log(samples2 / samples1)`` (both samples and events grow).
 """
 
@@ -32,7 +36,6 @@ import json
 import math
 import os
 import platform
-import resource
 import statistics
 import subprocess
 import sys
@@ -99,13 +102,27 @@ def _stage(name: str, timings: dict, fn):
     return value
 
 
+def _status_kb(field: str) -> int:
+    """A ``/proc/self/status`` memory field (``VmRSS``, ``VmHWM``) in bytes."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
 def worker_bare(path: str) -> None:
     import polars as pl
 
     c = time.process_time()
     df = pl.read_csv(path)
     arrays = [df[k].to_numpy() for k in ("time", "u", "y")]
-    print(json.dumps({"cpu": time.process_time() - c, "n": len(arrays[0])}))
+    print(json.dumps({"cpu": time.process_time() - c, "n": len(arrays[0]),
+                      "hwm": _status_kb("VmHWM")}))
+
+
+def worker_write(path: str, n: str, n_events: str) -> None:
+    write_log(Path(path), int(n), int(n_events))
 
 
 def worker_pipeline(path: str, out: str) -> None:
@@ -119,7 +136,7 @@ def worker_pipeline(path: str, out: str) -> None:
     from pipeline.report.build import write_run
     from pipeline.results import RunResult
 
-    rss_imports = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    rss_imports = _status_kb("VmRSS")
     t: dict = {}
     rec = _stage("load", t, lambda: pipeline.load(path, input="u", output="y", time="time"))
     events = _stage("segment", t, lambda: pipeline.segment(rec))
@@ -139,7 +156,7 @@ def worker_pipeline(path: str, out: str) -> None:
     run = RunResult([res], config=path, created="2026-01-01T00:00:00+00:00")
     _stage("report", t, lambda: write_run(Path(out), run, run.to_doc(), title="scale"))
     print(json.dumps({"stages": t, "rss_imports": rss_imports, "events": len(events),
-                      "graphical_fits": n_fits}))
+                      "graphical_fits": n_fits, "hwm": _status_kb("VmHWM")}))
 
 
 # -- the driver -----------------------------------------------------------------------------
@@ -166,8 +183,10 @@ def main() -> None:
         cli_sizes = set(_sizes(a.cli_sizes))
         for n, n_events in _sizes(a.sizes):
             path = folder / f"scale_{n}_{n_events}.csv"
-            if not path.exists():
-                write_log(path, n, n_events)
+            if not path.exists():  # in a child: the driver stays small (see the docstring)
+                subprocess.run([py, me, "--worker", "write", str(path), str(n),
+                                str(n_events)], check=True, env={**os.environ,
+                                                                 "PYTHONPATH": str(ROOT)})
             bare, pipe, cli = [], [], []
             for _ in range(a.reps):
                 bare.append(measured([py, me, "--worker", "bare", str(path)]))
@@ -197,10 +216,11 @@ def summarise(n, n_events, path, bare, pipe, cli, cli_timeout) -> dict:
     raw = 3 * 8 * n
     return {"n": n, "events": n_events, "file_mb": path.stat().st_size / 1e6,
             "bare_cpu": bare_cpu, "bare_process_cpu": _median(bare, "cpu"),
-            "bare_rss": _median(bare, "rss"), "stages": stages, "walls": walls,
-            "pipe_cpu": _median(pipe, "cpu"), "pipe_rss": _median(pipe, "rss"),
-            "pipe_rss_net": statistics.median(r["rss"] - json.loads(r["out"])["rss_imports"]
-                                              for r in pipe),
+            "bare_rss": statistics.median(json.loads(r["out"])["hwm"] for r in bare),
+            "stages": stages, "walls": walls,
+            "pipe_cpu": _median(pipe, "cpu"), "pipe_rss": statistics.median(
+                d["hwm"] for d in docs),
+            "pipe_rss_net": statistics.median(d["hwm"] - d["rss_imports"] for d in docs),
             "raw": raw, "cli_ran": bool(cli), "cli_timeout": cli_timeout,
             "cli_cpu": _median(cli, "cpu") if cli and None not in cli else None,
             "cli_rss": _median(cli, "rss") if cli and None not in cli else None,
@@ -243,6 +263,7 @@ def report_growth(rows: list[dict]) -> None:
 
 if __name__ == "__main__":
     if len(sys.argv) > 2 and sys.argv[1] == "--worker":
-        {"bare": worker_bare, "pipeline": worker_pipeline}[sys.argv[2]](*sys.argv[3:])
+        {"bare": worker_bare, "pipeline": worker_pipeline,
+         "write": worker_write}[sys.argv[2]](*sys.argv[3:])
     else:
         main()
