@@ -1,0 +1,134 @@
+"""Where a long log's run peaks in memory: the resident set sampled per stage and per step of
+the analysis, with the Python stack where each step peaked (issue 14 item 6).
+
+    python benchmarks/memory_stages.py LOG.csv [--out DIR]
+
+``LOG.csv`` is a ``time,u,y`` log, e.g. one that ``benchmarks/scale.py --keep DIR`` wrote.
+The stages of ``pipeline run`` are run in this process as ``benchmarks/scale.py`` runs
+them (load, segment, analyse with event 0 identifying, report), while a thread reads the
+resident set (``/proc/self/statm``) every 2 ms. Each stage and each analysis step
+(:data:`STEPS`, wrapped to say when they run) gets its peak over the resident set after
+the imports, against the raw ``t, u, y`` arrays (``3 x 8 x samples`` bytes), and the stack
+of the main thread when the sampler saw it (to the GIL's switch interval: the step named
+is exact, the line within it approximate). ``tracemalloc`` does not see the C
+allocators' retention (glibc's freed heap, polars' jemalloc pages), which is part of
+what the process holds, so the resident set is what is measured.
+
+Linux only (``/proc``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import os
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+#: The analysis steps timed on their own: (module, function) as the analysis calls them.
+STEPS = [("pipeline.analysis", "segment"), ("pipeline.analysis", "event_states"),
+         ("pipeline.analysis", "_event_fits"), ("pipeline.analysis", "_with_information_criteria"),
+         ("pipeline.analysis", "recommend"), ("pipeline.consistency", "event_estimates"),
+         ("pipeline.consistency", "step_gains"), ("pipeline.analysis", "grade"),
+         ("pipeline.grade", "closed_loop_flag"), ("pipeline.grade", "fit_flags")]
+PAGE = os.sysconf("SC_PAGE_SIZE")
+
+
+def rss() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * PAGE
+
+
+class Sampler:
+    """The peak resident set of each labelled stage, and the stack at it."""
+
+    def __init__(self) -> None:
+        self.label: str | None = None
+        self.peaks: dict[str, tuple[int, list[str]]] = {}
+        self.main = threading.main_thread().ident
+        self._stop = False
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self) -> None:
+        while not self._stop:
+            r, label = rss(), self.label
+            if label and r > self.peaks.get(label, (0, []))[0]:
+                frame = sys._current_frames().get(self.main)
+                stack = [f"{Path(f.filename).name}:{f.lineno} {f.name}"
+                         for f in traceback.extract_stack(frame)][-6:] if frame else []
+                self.peaks[label] = (r, stack)
+            time.sleep(0.002)
+
+    def __enter__(self) -> Sampler:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._stop = True
+        self._thread.join()
+
+    def wrap(self, module, name: str) -> None:
+        """Label the calls of ``module.name`` (nested under the current label)."""
+        f = getattr(module, name)
+
+        @functools.wraps(f)
+        def labelled(*args, **kwargs):
+            outer = self.label
+            self.label = f"{outer}/{name}" if outer else name
+            try:
+                return f(*args, **kwargs)
+            finally:
+                self.label = outer
+
+        setattr(module, name, labelled)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("log", type=Path)
+    ap.add_argument("--out", type=Path, default=None, help="report folder (a temporary one)")
+    a = ap.parse_args()
+    import importlib
+
+    import pipeline
+    import pipeline.io.delimited  # noqa: F401  (imported before the baseline is read)
+    from pipeline.analysis import AnalysisOptions
+    from pipeline.report.build import write_run
+    from pipeline.results import RunResult
+
+    base = rss()
+    with Sampler() as s, tempfile.TemporaryDirectory() as tmp:
+        for module, name in STEPS:
+            s.wrap(importlib.import_module(module), name)
+
+        def stage(label, fn):
+            s.label = label
+            value = fn()
+            time.sleep(0.01)  # the sampler's last look
+            s.label = None
+            return value
+
+        rec = stage("load", lambda: pipeline.load(a.log, input="u", output="y", time="time"))
+        stage("segment", lambda: pipeline.segment(rec))
+        res = stage("analyse", lambda: pipeline.analyse(rec, AnalysisOptions(events=(0,))))
+        run = RunResult([res], config=str(a.log), created="2026-01-01T00:00:00+00:00")
+        stage("report", lambda: write_run(a.out or Path(tmp), run, run.to_doc(), title="m"))
+    raw = 3 * 8 * rec.n_samples
+    print(f"{rec.n_samples:,} samples; imports {base / 1e6:.0f} MB; raw arrays "
+          f"{raw / 1e6:.0f} MB (3x: {3 * raw / 1e6:.0f} MB)")
+    for label, (peak, stack) in sorted(s.peaks.items(), key=lambda kv: -kv[1][0]):
+        print(f"{label:42s} {(peak - base) / 1e6:7.0f} MB over the imports = "
+              f"{(peak - base) / raw:.2f}x raw")
+        for line in stack:
+            print(f"{'':6s}{line}")
+
+
+if __name__ == "__main__":
+    main()
