@@ -102,7 +102,7 @@ def _stage(name: str, timings: dict, fn):
     return value
 
 
-def _status_kb(field: str) -> int:
+def _status_bytes(field: str) -> int:
     """A ``/proc/self/status`` memory field (``VmRSS``, ``VmHWM``) in bytes."""
     with open("/proc/self/status") as f:
         for line in f:
@@ -118,7 +118,7 @@ def worker_bare(path: str) -> None:
     df = pl.read_csv(path)
     arrays = [df[k].to_numpy() for k in ("time", "u", "y")]
     print(json.dumps({"cpu": time.process_time() - c, "n": len(arrays[0]),
-                      "hwm": _status_kb("VmHWM")}))
+                      "hwm": _status_bytes("VmHWM")}))
 
 
 def worker_write(path: str, n: str, n_events: str) -> None:
@@ -136,7 +136,7 @@ def worker_pipeline(path: str, out: str) -> None:
     from pipeline.report.build import write_run
     from pipeline.results import RunResult
 
-    rss_imports = _status_kb("VmRSS")
+    rss_imports = _status_bytes("VmRSS")
     t: dict = {}
     rec = _stage("load", t, lambda: pipeline.load(path, input="u", output="y", time="time"))
     events = _stage("segment", t, lambda: pipeline.segment(rec))
@@ -156,7 +156,7 @@ def worker_pipeline(path: str, out: str) -> None:
     run = RunResult([res], config=path, created="2026-01-01T00:00:00+00:00")
     _stage("report", t, lambda: write_run(Path(out), run, run.to_doc(), title="scale"))
     print(json.dumps({"stages": t, "rss_imports": rss_imports, "events": len(events),
-                      "graphical_fits": n_fits, "hwm": _status_kb("VmHWM")}))
+                      "graphical_fits": n_fits, "hwm": _status_bytes("VmHWM")}))
 
 
 # -- the driver -----------------------------------------------------------------------------

@@ -40,6 +40,7 @@ import numpy as np
 from scipy import signal
 
 from .discretise import discrete_poles
+from .heap import CHUNK
 from .models import PARAMETERS, STRUCTURES, ProcessModel, Structure
 from .record import infer_sample_time
 from .simulation import simulate
@@ -70,19 +71,14 @@ def uniform_step(t: np.ndarray) -> float | None:
     return infer_sample_time(np.asarray(t, dtype=np.float64), rel_tol=1e-4)
 
 
-#: Samples filtered at a time on a long input (the recursive filter's state carried from
-#: chunk to chunk: the same output to the bit), so that the record-long input deviation,
-#: the filter's output and its copy shifted by the dead time (three 80 MB arrays at 10 M
-#: samples) are one output array.
-CHUNK = 1 << 20
 
 
 def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.ndarray,
                     dt: float | None = None, *, u0: float = 0.0) -> np.ndarray:
-    """Unit-gain response from rest to the held deviation input ``du - u0`` (see the
-    module docstring; ``u0`` is subtracted chunk by chunk, so a caller need not make the
-    deviation of a long input); ``dt`` is the uniform sample time (None: found from
-    ``t``, irregular grids are superposed)."""
+    """Unit-gain response from rest to the held input ``du``, a deviation from ``u0``
+    (see the module docstring; ``u0`` is subtracted chunk by chunk, so a caller can give
+    the measured input of a long record as it is, without making its deviation); ``dt``
+    is the uniform sample time (None: found from ``t``, irregular grids are superposed)."""
     spec = STRUCTURES[structure]
     n = du.size
     if n == 0:
@@ -112,7 +108,10 @@ def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.n
 def _filtered(b: np.ndarray, a: np.ndarray, lag: int, u: np.ndarray, u0: float
               ) -> np.ndarray:
     """``lfilter(b, a, u - u0)`` delayed by ``lag`` samples (zeros before), filtered
-    :data:`CHUNK` samples at a time into the one output array."""
+    :data:`pipeline.heap.CHUNK` samples at a time into the one output array (the filter's
+    state carried from chunk to chunk: the same output to the bit), so that the
+    record-long input deviation, the filter's output and its copy shifted by the dead time
+    (three 80 MB arrays at 10 M samples) are one output array."""
     n = u.size
     out = np.zeros(n)
     z = np.zeros(max(a.size, b.size) - 1)

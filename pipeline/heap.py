@@ -1,4 +1,6 @@
-"""Freed memory handed back to the system between the stages of a long record's analysis.
+"""Memory on long records: freed memory handed back to the system between the stages of a
+long record's analysis, and the chunk size of the passes that avoid record-long
+temporaries (:data:`CHUNK`).
 
 glibc's allocator keeps freed heap memory for reuse and returns it only from the top of
 the heap; a long record's analysis frees thousands of window-sized arrays (the per-step
@@ -15,6 +17,13 @@ from __future__ import annotations
 import ctypes
 import functools
 import sys
+
+#: Samples per chunk of a pass that works a chunk at a time instead of on record-long
+#: temporaries (8 MB of float64): the chunked filter of a long simulation
+#: (:mod:`pipeline.basis`), rankings (:mod:`pipeline.ranks`), paired sums and order checks
+#: (:mod:`pipeline.recommend`), decimation (:mod:`pipeline.report.drawing`). Each gives
+#: the numbers of one whole-array pass.
+CHUNK = 1 << 20
 
 
 @functools.cache

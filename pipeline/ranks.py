@@ -17,8 +17,7 @@ import math
 
 import numpy as np
 
-#: Samples per chunk where a record-long temporary is avoided (8 MB of float64).
-CHUNK = 1 << 20
+from .heap import CHUNK
 
 
 def average_ranks(x: np.ndarray) -> np.ndarray:

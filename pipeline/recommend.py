@@ -41,6 +41,7 @@ import numpy as np
 from scipy import stats
 
 from .fit import Fit
+from .heap import CHUNK
 from .joint import fold_models, held_out_events
 from .results import Recommendation
 from .uncertainty import variance_factor
@@ -243,11 +244,6 @@ def paired_difference(c: Candidate, best: Candidate, noise: float) -> tuple[floa
     sum_d, sum_delta2 = _paired_sums(ec, eb)
     var = 4 * noise * variance_factor(eb) * sum_delta2 / ec.size
     return sum_d / ec.size, math.sqrt(var / ec.size)
-
-
-#: Samples per chunk of :func:`_paired_sums` and :func:`increasing` (their temporaries:
-#: a few of this size).
-CHUNK = 1 << 20
 
 
 def increasing(idx: np.ndarray) -> bool:

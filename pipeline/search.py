@@ -11,7 +11,8 @@
   starts with no edit here;
 * :func:`multistart` - the search itself: a few trust-region iterations from each of the
   best distinct starts, then the best of them to convergence
-  (``scipy.optimize.least_squares``, trust-region reflective, bounded).
+  (``scipy.optimize.least_squares``, trust-region reflective, bounded); when that ends at
+  a time scale far beyond the data (:func:`far_bound`), more starts are tried.
 """
 
 from __future__ import annotations
@@ -33,6 +34,12 @@ PILOT_NFEV = 3
 DISTINCT_LOG, DISTINCT_LINEAR = 0.5, 0.05
 #: Relative tolerances of the search (cost and step): far below a noise-limited precision.
 FTOL = 1e-5
+#: A time constant within this share of its search range of the upper bound (a hundred
+#: spans), or a frequency as near its lower bound, is at the bound (:func:`far_bound`).
+FAR_BOUND = 1e-3
+#: When the best run ends there, this many times ``n_starts`` more distinct candidates at
+#: most are tried.
+MORE_STARTS = 3
 
 #: Start values of dimensionless parameters (templates; the time parameters are scaled).
 DIMENSIONLESS_STARTS: dict[str, tuple[float, ...]] = {"zeta": (0.4, 1.0, 2.0),
@@ -204,12 +211,16 @@ class Run:
 def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
                starts: Sequence[Mapping[str, float]], n_starts: int, max_nfev: int) -> Run:
     """Minimise ``|fun(z)|^2`` over ``space`` from the ``n_starts`` best distinct
-    ``starts`` (parameters a start lacks: :func:`defaults`): :data:`PILOT_NFEV`
-    iterations from each, then the best one to convergence. ``fun`` returns the residual
-    vector at search coordinates ``z``."""
+    ``starts`` (parameters a start lacks: :func:`defaults`; ``n_starts`` < 1: all of
+    them): :data:`PILOT_NFEV` iterations from each, then the best one to convergence;
+    when that ends at a time scale far beyond the data (:func:`far_bound`), up to
+    :data:`MORE_STARTS` times as many more are piloted and every pilot run to
+    convergence, the lowest cost kept. ``fun`` returns the residual vector at search
+    coordinates ``z``."""
     # every run starts where a residual was already evaluated (a candidate's ranking, the
     # pilot's last point), and least_squares evaluates it again: the same z gives the
-    # same residual, so it is kept (read-only) and not simulated twice
+    # same residual, so it is kept (a read-only view) and not simulated twice; the
+    # residuals of one search (rows of at most max_rows, ~100 evaluations) are kept
     seen_r: dict[bytes, np.ndarray] = {}
 
     def safe(z):
@@ -217,7 +228,7 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
         r = seen_r.get(key)
         if r is None:
             r = fun(z)
-            r = r if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
+            r = r.view() if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
             r.setflags(write=False)
             seen_r[key] = r
         return r
@@ -244,7 +255,7 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
                 out.append(z)
         return out
 
-    chosen = distinct(n_starts, [])
+    chosen = distinct(n_starts if n_starts > 0 else None, [])
     nfev = len(cands)
 
     def run(z0, limit):
@@ -262,11 +273,11 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
         best = run(chosen[0] if best is None else best.x, max_nfev)
     if runs and far_bound(space, best.x):
         # the best pilot ran off to a time scale far beyond the data (a slow pole-zero
-        # pair creeping past the window, fitting a drift in the noise): every distinct
-        # candidate is piloted, each pilot run to convergence, the lowest cost kept (on a
-        # one-lag plant a zero-two-lags fit from the 3 best starts ended at a lag of
+        # pair creeping past the window, fitting a drift in the noise): more distinct
+        # candidates are piloted, each pilot run to convergence, the lowest cost kept (on
+        # a one-lag plant a zero-two-lags fit from the 3 best starts ended at a lag of
         # 3,700 s on a 37 s window; from 12 starts at the plant's 5 s lag, cost lower)
-        more = distinct(None, chosen)
+        more = distinct(len(chosen) * (1 + MORE_STARTS), chosen)
         for other in sorted(runs[1:] + [run(z0, PILOT_NFEV) for z0 in more],
                             key=lambda r: r.cost):
             alt = run(other.x, max_nfev) if other.status == 0 else other
@@ -276,16 +287,13 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
     return Run(space.from_z(best.x), float(best.cost), nfev, len(chosen))
 
 
-#: A time constant within this share of its search range of the upper bound (a hundred
-#: spans) is at the bound (:func:`far_bound`).
-FAR_BOUND = 1e-3
-
-
 def far_bound(space: Space, z: np.ndarray) -> bool:
-    """Whether a positive time constant of ``z`` is at its upper search bound, a hundred
-    spans: a lag the data cannot have determined (a damping at its bound is an
-    overdamped second order, a first-order response: no sign of a wrong basin)."""
-    near = z >= space.hi - FAR_BOUND * (space.hi - space.lo)
-    time = np.array([n in PARAMETERS and PARAMETERS[n].kind == "time" for n in space.names],
-                    bool)
-    return bool(np.any(near & space.log & time))
+    """Whether ``z`` has a positive time constant at its upper search bound (a hundred
+    spans) or a frequency at its lower one (a period of a hundred spans): a time scale
+    the data cannot have determined. A damping at its bound is an overdamped second
+    order, a first-order response: no sign of a wrong basin."""
+    margin = FAR_BOUND * (space.hi - space.lo)
+    kind = np.array([PARAMETERS[n].kind if n in PARAMETERS else "" for n in space.names])
+    far = ((kind == "time") & (z >= space.hi - margin)) | \
+        ((kind == "frequency") & (z <= space.lo + margin))
+    return bool(np.any(far & space.log))

@@ -75,7 +75,8 @@ class _Values:
         v = self.kept.get(j)
         if v is None:
             v = self.kept[j] = c.make()
-            self.norm2.setdefault(j, float(v @ v))
+            if j not in self.norm2:
+                self.norm2[j] = float(v @ v)
         return v
 
     def settled(self, js) -> None:

@@ -48,4 +48,12 @@ def test_far_bound_is_a_time_constant_at_its_upper_bound_only():
     assert not far_bound(SPACE, np.array([lo]))
     damping = search_space("second_order", ["zeta", "wn"], 0.1, 10.0)
     # an overdamped second order (zeta at its bound) is a first-order response, no alarm
-    assert not far_bound(damping, damping.hi.copy())
+    assert not far_bound(damping, np.array([damping.hi[0], 0.0]))
+    # a natural frequency at its lowest (a period a hundred spans long) is one
+    assert far_bound(damping, np.array([0.0, damping.lo[1]]))
+
+
+def test_no_start_limit_tries_every_distinct_start():
+    starts = [{"T": 200.0}, {"T": 400.0}, {"T": 30.0}, {"T": 0.5}]
+    run = multistart(_two_basins, SPACE, starts, 0, 300)
+    assert run.runs == 4 and run.params["T"] == pytest.approx(2.0, rel=1e-3)

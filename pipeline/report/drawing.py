@@ -18,11 +18,8 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.text import Text
 
+from ..heap import CHUNK
 from ..quoting import printable
-
-#: Samples decimated at a time: a 10 M-sample curve's per-sample temporaries (column
-#: numbers, groups, filled copies: about 40 bytes a sample) were 400 MB at once.
-CHUNK = 1 << 20
 
 
 def decimate(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray]:
@@ -32,7 +29,9 @@ def decimate(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np
     NaN keeps one NaN (a gap in the data stays a gap in the line).
 
     Hand-written with numpy (matplotlib draws every point it is given): O(samples), in
-    chunks of :data:`CHUNK` samples (a slice that spans two chunks takes the lower
+    chunks of :data:`pipeline.heap.CHUNK` samples (a 10 M-sample curve's per-sample
+    temporaries, about 40 bytes a sample, were 400 MB at once; a slice that spans two
+    chunks takes the lower
     minimum and the higher maximum of its two parts, the earlier sample on a tie: the
     same samples as one pass over the whole curve).
     """

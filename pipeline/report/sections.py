@@ -202,6 +202,7 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
                 y = np.full(hi - lo, np.nan)
                 for sl, sim in sims:
                     y[sl.start - lo : sl.stop - lo] = sim
+                sim = None  # the last run's simulation, before the next fit's is made
             del sims
             yield f"{_label(f)} (MSE {fmt(f.metrics.get('mse_validation'), 3)})", y
             del y  # before the next curve is allocated
