@@ -98,7 +98,8 @@ def measured(argv: list[str], timeout: float | None = None) -> dict | None:
 def _stage(name: str, timings: dict, fn):
     c, w = time.process_time(), time.perf_counter()
     value = fn()
-    timings[name] = {"cpu": time.process_time() - c, "wall": time.perf_counter() - w}
+    timings[name] = {"cpu": time.process_time() - c, "wall": time.perf_counter() - w,
+                     "hwm": _status_bytes("VmHWM")}  # the high-water mark so far
     return value
 
 
@@ -221,6 +222,8 @@ def summarise(n, n_events, path, bare, pipe, cli, cli_timeout) -> dict:
             "pipe_cpu": _median(pipe, "cpu"), "pipe_rss": statistics.median(
                 d["hwm"] for d in docs),
             "pipe_rss_net": statistics.median(d["hwm"] - d["rss_imports"] for d in docs),
+            "hwm_net": {k: statistics.median(d["stages"][k]["hwm"] - d["rss_imports"]
+                                             for d in docs) for k in docs[0]["stages"]},
             "raw": raw, "cli_ran": bool(cli), "cli_timeout": cli_timeout,
             "cli_cpu": _median(cli, "cpu") if cli and None not in cli else None,
             "cli_rss": _median(cli, "rss") if cli and None not in cli else None,
@@ -237,7 +240,8 @@ def report(rows: list[dict], header: bool = True) -> None:
               f"(process {r['bare_process_cpu']:.2f} s, peak {r['bare_rss'] / 1e6:.0f} MB)")
         for k, v in r["stages"].items():
             print(f"  {k:10s} {v:8.2f} s CPU {r['walls'][k]:8.2f} s wall  "
-                  f"{v / r['bare_cpu']:7.2f}x bare")
+                  f"{v / r['bare_cpu']:7.2f}x bare; peak so far "
+                  f"{r['hwm_net'][k] / r['raw']:.2f}x the raw arrays")
         print(f"  whole process {r['pipe_cpu']:.2f} s CPU; peak {r['pipe_rss'] / 1e6:.0f} MB, "
               f"{r['pipe_rss_net'] / 1e6:.0f} MB over the imports = "
               f"{r['pipe_rss_net'] / r['raw']:.2f}x the raw arrays ({r['raw'] / 1e6:.0f} MB); "

@@ -23,6 +23,7 @@ from __future__ import annotations
 import codecs
 from pathlib import Path
 
+import numpy as np
 import polars as pl
 
 from ..errors import UserError
@@ -82,11 +83,15 @@ def _read(path: Path, data: DataSection, options: TableOptions, delimiter: str |
     wanted = sorted({0, *picked, *([] if i_t is None else [i_t])})
     types = {i: _type(rows, i, i == i_t) if i in picked or i == i_t else pl.String
              for i in wanted}
-    frame = pl.read_csv(
-        path, has_header=False, separator=_CHARS[delimiter], skip_lines=start - 1,
-        schema={str(i): types.get(i, pl.String) for i in range(len(head))},
-        columns=wanted, decimal_comma=decimal == ",", infer_schema=False, glob=False,
-        raise_if_empty=False)
+    how = {"has_header": False, "separator": _CHARS[delimiter], "skip_lines": start - 1,
+           "schema": {str(i): types.get(i, pl.String) for i in range(len(head))},
+           "decimal_comma": decimal == ",", "infer_schema": False, "glob": False,
+           "raise_if_empty": False}
+    frame = None
+    if all(types[i] == pl.Float64 for i in wanted):
+        frame = _streamed(path, how, wanted, _rows_estimate(path, lines, start))
+    if frame is None:
+        frame = pl.read_csv(path, columns=wanted, **how)
     if any(frame.null_count().row(0)):
         frame = _without_trailing_blanks(frame, path)
         if any(frame.null_count().row(0)):
@@ -99,6 +104,47 @@ def _read(path: Path, data: DataSection, options: TableOptions, delimiter: str |
 
 
 _CHARS = {"tab": "\t", "semicolon": ";", "comma": ","}
+#: Rows per batch of the streamed read (:func:`_streamed`).
+BATCH_ROWS = 1 << 20
+
+
+def _streamed(path: Path, how: dict, wanted: list[int], n_estimate: int
+              ) -> pl.DataFrame | None:
+    """The ``wanted`` columns, all numbers, read by polars' streaming engine in batches
+    of :data:`BATCH_ROWS` rows and copied straight into numpy arrays (sized from the
+    estimate, then resized in place to the rows read: ``realloc``, no copy for arrays
+    this large), each then a polars column without a copy; None when a batch has an
+    empty cell (the whole-file read says where: trailing blank lines or a drop-out). A
+    whole-file read holds the parsed pieces and their contiguous copy at once: at 10 M
+    rows it peaked at 2.7-3.0 times the three arrays."""
+    names = [str(i) for i in wanted]
+    out = [np.empty(max(n_estimate, 1)) for _ in names]
+    k = 0
+    batches = pl.scan_csv(path, **how).select(names).collect_batches(chunk_size=BATCH_ROWS)
+    for batch in batches:
+        if any(batch.null_count().row(0)):
+            return None
+        m = batch.height
+        for a, name in zip(out, names, strict=True):
+            if k + m > a.size:  # the estimate was short
+                a.resize(max(k + m, int(1.5 * a.size)), refcheck=False)
+            a[k : k + m] = batch.get_column(name).to_numpy()
+        k += m
+    for a in out:
+        a.resize(k, refcheck=False)  # no view of it exists yet
+    return pl.DataFrame([pl.Series(name, a) for name, a in zip(names, out, strict=True)])
+
+
+def _rows_estimate(path: Path, lines: list[str], start: int) -> int:
+    """About how many data rows the file holds: its size after the header over the first
+    rows' mean length, with a margin (a short estimate costs a reallocation, a long one
+    nothing: the arrays are cut to the rows read)."""
+    head = [len(line.encode("utf-8")) + 1 for line in lines[start - 1:]]
+    before = sum(len(line.encode("utf-8")) + 1 for line in lines[: start - 1])
+    if not head:
+        return 1024
+    size = path.stat().st_size - before
+    return int(1.02 * size / (sum(head) / len(head))) + 1024
 
 
 def _head(path: Path) -> tuple[list[str], bool]:
