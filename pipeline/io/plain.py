@@ -88,7 +88,8 @@ def _read(path: Path, data: DataSection, options: TableOptions, delimiter: str |
            "decimal_comma": decimal == ",", "infer_schema": False, "glob": False,
            "raise_if_empty": False}
     frame = None
-    if all(types[i] == pl.Float64 for i in wanted):
+    if all(types[i] == pl.Float64 for i in wanted) and hasattr(pl.LazyFrame,
+                                                                "collect_batches"):
         frame = _streamed(path, how, wanted, _rows_estimate(path, lines, start))
     if frame is None:
         frame = pl.read_csv(path, columns=wanted, **how)
