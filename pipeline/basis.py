@@ -71,8 +71,6 @@ def uniform_step(t: np.ndarray) -> float | None:
     return infer_sample_time(np.asarray(t, dtype=np.float64), rel_tol=1e-4)
 
 
-
-
 def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.ndarray,
                     dt: float | None = None, *, u0: float = 0.0) -> np.ndarray:
     """Unit-gain response from rest to the held input ``du``, a deviation from ``u0``

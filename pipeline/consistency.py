@@ -180,6 +180,7 @@ def step_gains(record: Record, events: list[Event], shape: ProcessModel
         else float(u[max(starts[0] - 1, 0)])
     dt = record.sample_time
     mem = memory(unit, dt) if dt is not None else None
+
     def response(a: int, b: int, stop: int, before: float):
         def make() -> np.ndarray:  # simulated when the solver needs it (twice: memory)
             d = np.empty(stop - a)

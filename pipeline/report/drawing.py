@@ -30,10 +30,9 @@ def decimate(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np
 
     Hand-written with numpy (matplotlib draws every point it is given): O(samples), in
     chunks of :data:`pipeline.heap.CHUNK` samples (a 10 M-sample curve's per-sample
-    temporaries, about 40 bytes a sample, were 400 MB at once; a slice that spans two
-    chunks takes the lower
-    minimum and the higher maximum of its two parts, the earlier sample on a tie: the
-    same samples as one pass over the whole curve).
+    temporaries, about 40 bytes a sample, were 400 MB at once). A slice that spans two
+    chunks takes the lower minimum and the higher maximum of its two parts, the earlier
+    sample on a tie: the same samples as one pass over the whole curve.
     """
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -49,7 +48,8 @@ def decimate(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np
     for a in range(0, n, CHUNK):
         b = min(a + CHUNK, n)
         col = np.minimum(((x[a:b] - x[0]) * scale).astype(np.int64), columns - 1)
-        part = [col[_column_starts(col)], *_extremes(col, y[a:b], a)]
+        starts = np.flatnonzero(np.r_[True, col[1:] != col[:-1]])  # where a column begins
+        part = [col[starts], *_extremes(starts, y[a:b], a)]
         if parts and parts[-1][0][-1] == part[0][0]:  # a column across the chunk boundary
             prev = parts[-1]
             if part[1][0] < prev[1][-1]:
@@ -63,16 +63,11 @@ def decimate(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np
     return x[keep], y[keep]
 
 
-def _column_starts(col: np.ndarray) -> np.ndarray:
-    """Where each run of equal column numbers starts."""
-    return np.flatnonzero(np.r_[True, col[1:] != col[:-1]])
-
-
-def _extremes(col: np.ndarray, y: np.ndarray, offset: int) -> list[np.ndarray]:
-    """Per run of ``col``: the minimum of ``y`` and the first sample at it (``offset``
-    added), the maximum and the first sample at it; non-finite values count as +inf for
-    the minimum and -inf for the maximum (a run of NaNs only: its first sample)."""
-    starts = _column_starts(col)
+def _extremes(starts: np.ndarray, y: np.ndarray, offset: int) -> list[np.ndarray]:
+    """Per pixel column (beginning at the samples ``starts`` of ``y``): the minimum of
+    ``y`` and the first sample at it (``offset`` added), the maximum and the first sample
+    at it; non-finite values count as +inf for the minimum and -inf for the maximum (a
+    column of NaNs only: its first sample)."""
     bins = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, y.size]))
     finite = np.isfinite(y)
     out = []
