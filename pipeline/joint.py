@@ -34,7 +34,7 @@ from .left_out import left_out_fits
 from .methods import REGISTRY, identify
 from .models import ProcessModel
 from .record import Record
-from .refine import Refinement, RefineOptions, refine
+from .refine import Refinement, RefineOptions, refine, refine_model
 from .refine_record import carry_source, mismatch, result_parts, structure_state
 from .search import candidate_starts
 from .validate import fit_start, heldout_residuals
@@ -84,15 +84,37 @@ def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], s
                 ) -> tuple[Refinement, Span]:
     """One model of ``structure`` over :func:`span`, from ``starts`` (default: the
     candidate starts of ``models``, :func:`pipeline.search.candidate_starts`)."""
+    s, state, args, kw = _span_problem(record, events, ident, structure, models, states,
+                                       exclude, starts)
+    ref = refine(*args, **kw, options=options)
+    return replace(ref, initial_state=state if state == "steady" else s.label), s
+
+
+def _refit_model(record: Record, events: Sequence[Event], ident: Sequence[int],
+                 structure: str, *, models: Sequence[ProcessModel], states: Sequence[str],
+                 exclude: Sequence[int], options: RefineOptions | None,
+                 starts: Sequence[dict[str, float]] | None
+                 ) -> tuple[ProcessModel, float]:
+    """:func:`refine_span`'s model and input balance point alone
+    (:func:`pipeline.refine.refine_model`: without the intervals a fold never reads)."""
+    _, _, args, kw = _span_problem(record, events, ident, structure, models, states,
+                                   exclude, starts)
+    return refine_model(*args, **kw, options=options)
+
+
+def _span_problem(record: Record, events: Sequence[Event], ident: Sequence[int],
+                  structure: str, models: Sequence[ProcessModel], states: Sequence[str],
+                  exclude: Sequence[int], starts: Sequence[dict[str, float]] | None
+                  ) -> tuple[Span, str, tuple, dict]:
+    """The span, the model's initial state, and the arguments of a refinement over it."""
     s = span(events, ident, states, exclude)
     sl = slice(s.start, s.stop)
     horizon = float(record.t[s.stop - 1] - record.t[s.start])
     state = structure_state(structure, s.state, events[ident[0]])
-    ref = refine(record.t[sl], record.u[sl], record.y[sl], structure, u_ref=s.u_ref,
-                 starts=candidate_starts(structure, models, horizon) if starts is None
-                 else starts, mask=s.mask,
-                 initial_state=state, options=options)
-    return replace(ref, initial_state=state if state == "steady" else s.label), s
+    kw = {"u_ref": s.u_ref, "mask": s.mask, "initial_state": state,
+          "starts": candidate_starts(structure, models, horizon) if starts is None
+          else starts}
+    return s, state, (record.t[sl], record.u[sl], record.y[sl], structure), kw
 
 
 #: Cross-validation folds at most: up to this many identification events each is left out
@@ -159,11 +181,10 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
     folds, errors = [], []
     for held, step in zip(held_out, approx, strict=True):
         if step is None:  # the steps did not converge: the exact refit
-            ref, _ = refine_span(record, events, ident, joint.model.structure,
-                                 models=[joint.model], states=states, exclude=held,
-                                 options=options,
-                                 starts=[dict(joint.model.params)] if stepped else None)
-            model, u0 = ref.model, ref.u0
+            model, u0 = _refit_model(record, events, ident, joint.model.structure,
+                                     models=[joint.model], states=states, exclude=held,
+                                     options=options,
+                                     starts=[dict(joint.model.params)] if stepped else None)
         else:
             model, u0 = ProcessModel(joint.model.structure, step[0]), step[1]
         u0 = u0 if model.integrating else None

@@ -137,6 +137,20 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     return ref
 
 
+def refine_model(t, u, y, structure: str, *, u_ref: float,
+                 starts: Sequence[Mapping[str, float]], mask: np.ndarray | None = None,
+                 initial_state: str = "rest", fixed: Mapping[str, float] | None = None,
+                 options: RefineOptions | None = None) -> tuple[ProcessModel, float]:
+    """:func:`refine`'s model and input balance point ``u0`` alone, the same to the bit,
+    without its intervals (the profiled Jacobian: ``2 x`` the searched parameters more
+    simulations of the span) or its residuals: a cross-validation fold's refit is
+    scored on the events it left out, its intervals never read."""
+    opt = options or RefineOptions()
+    o = _optimum(t, u, y, structure, u_ref, starts, mask, initial_state, fixed, opt)
+    _, c, _, u0 = _linear_fit(o.problem, o.params, u_ref)
+    return _model(o.problem.structure, o.params, float(c[0]), {}, {})[0], u0
+
+
 @dataclass(frozen=True)
 class _Optimum:
     """Where the search of :func:`refine` ended: the problem (``search``: with its
@@ -256,15 +270,11 @@ def _integer(prob: Problem, space: Space, fixed, p_best, ints, dt, span, opt,
 def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p``."""
-    a = prob.design(p)
-    c, rank = solve(prob.rows(a), prob.y)
+    a, c, rank, u0 = _linear_fit(prob, p, u_ref)
     rows_resid = prob.y - prob.rows(a) @ c
     fitted = a[prob.mask] @ c
     resid = y_fit - fitted
     K, y0 = float(c[0]), float(c[1])
-    u0 = u_ref
-    if prob.balance and K != 0:
-        u0 = u_ref - float(c[2]) / K
     free = list(space.names)
     jac = _profiled_jacobian(prob, space, p, K)
     factor = variance_factor(rows_resid)
@@ -283,14 +293,32 @@ def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nf
             b_lo, b_hi = STRUCTURES[prob.structure].bounds.get(n, (-math.inf, math.inf))
             ci[n] = (max(float(lo * space.scale[i]), b_lo), min(float(hi * space.scale[i]), b_hi))
             std[n] = float(sd[i] * space.scale[i])
-    params = {n: K if n == "K" else float(p[n]) for n in STRUCTURES[prob.structure].params}
-    params, ci, std = canonical(prob.structure, params, ci, std)
-    model = ProcessModel(prob.structure, params)
+    model, ci, std = _model(prob.structure, p, K, ci, std)
     return Refinement(
         model=model, y0=y0, u0=float(u0), ci95=ci, std=std, fitted=fitted, residuals=resid,
         initial_state=initial_state, n_linear=rank, variance_factor=variance_factor(resid),
         nfev=nfev, n_runs=runs, diagnostics={"coefficients": [float(v) for v in c[2:]],
                                              "rows": int(prob.y.size)})
+
+
+def _linear_fit(prob: Problem, p, u_ref: float
+                ) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """``(span design, linear coefficients, their rank, input balance point)`` at ``p``
+    (the balance point ``u_ref`` unless an integrating structure's is estimated)."""
+    a = prob.design(p)
+    c, rank = solve(prob.rows(a), prob.y)
+    u0 = u_ref
+    if prob.balance and float(c[0]) != 0:
+        u0 = u_ref - float(c[2]) / float(c[0])
+    return a, c, rank, float(u0)
+
+
+def _model(structure: str, p, K: float, ci, std) -> tuple[ProcessModel, dict, dict]:
+    """The model of gain ``K`` and parameters ``p``, its exchangeable lags in canonical
+    order (:func:`canonical`, the intervals swapped with them)."""
+    params = {n: K if n == "K" else float(p[n]) for n in STRUCTURES[structure].params}
+    params, ci, std = canonical(structure, params, ci, std)
+    return ProcessModel(structure, params), ci, std
 
 
 def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:

@@ -314,3 +314,29 @@ def test_one_event_models_are_scored_on_at_most_ten_other_events():
     # one spread set for every model: any two share at least nine events
     assert min(len(a & b) for a in sets for b in sets) >= 9
     assert all(j not in s for j, s in enumerate(sets))
+
+
+@pytest.mark.parametrize("structure,truth,state", [
+    # a long window: the coarse-to-fine search; two lags started in the other order, found
+    # in the canonical one (T1 >= T2)
+    ("two_lags", {"K": 1.5, "T1": 9.0, "T2": 3.0, "delay": 1.0}, "rest"),
+    # an integrating structure with its state estimated: the input balance point is fitted
+    ("integrator_lag", {"K": 0.2, "T": 4.0, "delay": 0.5}, "estimated"),
+])
+def test_refine_model_is_refine_without_the_intervals(structure, truth, state):
+    """A cross-validation fold's refit (:func:`pipeline.refine.refine_model`) gives the
+    model and balance point :func:`refine` gives, to the bit, on noisy data."""
+    from pipeline.refine import refine_model
+    t = np.arange(0, 300, 0.1)
+    u = staircase(t, 1.0, [(20.0, 2.0), (150.0, 1.5)])
+    model = ProcessModel(structure, truth)
+    y = simulate(model, t, u, 1.0, 4.0) + np.random.default_rng(5).normal(0, 0.02, t.size)
+    mask = t >= 10.0
+    starts = [{k: 1.3 * truth[{"T1": "T2", "T2": "T1"}.get(k, k)] for k in truth if k != "K"}]
+    ref = refine(t, u, y, structure, u_ref=1.0, starts=starts, mask=mask, initial_state=state)
+    m, u0 = refine_model(t, u, y, structure, u_ref=1.0, starts=starts, mask=mask,
+                         initial_state=state)
+    assert t.size > 2 * RefineOptions().max_rows  # the coarse pass ran
+    assert m == ref.model and u0 == ref.u0
+    assert (u0 != 1.0) == (state == "estimated")  # the balance point was fitted
+    assert m.params == pytest.approx(truth, rel=0.1)
