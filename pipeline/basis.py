@@ -43,7 +43,7 @@ from .discretise import discrete_poles
 from .heap import CHUNK
 from .models import PARAMETERS, STRUCTURES, ProcessModel, Structure
 from .record import infer_sample_time
-from .simulation import simulate
+from .simulation import convolved, pulse_length, simulate
 
 #: Poles of a rational model up to this order are filtered recursively (beyond it an
 #: expanded polynomial with poles near 1 loses precision, see pipeline.simulate).
@@ -84,23 +84,22 @@ def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.n
     dt = uniform_step(t) if dt is None else dt
     q = {**p, "K": 1.0}
     iir = None if dt is None else _iir(spec, q, dt)
-    if iir is not None and n > CHUNK:
+    if dt is not None and iir is None:  # the exact pulse response, convolved
+        k = np.arange(pulse_length(ProcessModel(structure, q), dt, n), dtype=np.float64) * dt
+        h = np.diff(step_delayed(spec, q, k), prepend=0.0)
+        big = np.flatnonzero(np.abs(h) > 1e-15 * max(float(np.abs(h).sum()), 1e-300))
+        return convolved(h[: big[-1] + 1] if big.size else h[:1], du, u0)
+    if n > CHUNK and iir is not None:
         return _filtered(*iir, du, u0)
     if u0:
         du = du - u0
     if dt is None:
         return simulate(ProcessModel(structure, q), t, du, 0.0, 0.0)
-    if iir is not None:
-        b, a, lag = iir
-        if lag >= n:
-            return np.zeros(n)
-        x = signal.lfilter(b, a, du[: n - lag])
-        return np.concatenate([np.zeros(lag), x]) if lag else x
-    k = np.arange(n, dtype=np.float64) * dt
-    h = np.diff(step_delayed(spec, q, k), prepend=0.0)
-    big = np.flatnonzero(np.abs(h) > 1e-15 * max(float(np.abs(h).sum()), 1e-300))
-    h = h[: big[-1] + 1] if big.size else h[:1]
-    return signal.oaconvolve(du, h)[:n] if h.size > 64 else np.convolve(du, h)[:n]
+    b, a, lag = iir
+    if lag >= n:
+        return np.zeros(n)
+    x = signal.lfilter(b, a, du[: n - lag])
+    return np.concatenate([np.zeros(lag), x]) if lag else x
 
 
 def _filtered(b: np.ndarray, a: np.ndarray, lag: int, u: np.ndarray, u0: float

@@ -1,5 +1,6 @@
 """Memory at scale (issue 14 item 6): the record-long passes that are now made a chunk at a
-time give the same numbers, to the bit, as one pass over the whole array, and the
+time give the same numbers, to the bit, as one pass over the whole array (a convolution:
+to rounding), and the
 per-step gains' columns are made when the solver reaches them and forgotten once settled,
 not all held at once."""
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.stats import rankdata
 
-from pipeline import basis, consistency, ranks, superposition
+from pipeline import basis, consistency, ranks, simulation, superposition
 from pipeline.models import ProcessModel
 from pipeline.report import drawing
 from pipeline.segmentation import SegmentOptions, segment
@@ -62,6 +63,32 @@ def test_forced_response_in_chunks_is_the_one_filter(structure, params, monkeypa
     monkeypatch.setattr(basis, "CHUNK", 999)  # the chunked path from 999 samples on
     got = basis.forced_response(structure, p, t, u, 0.1, u0=5.0)
     assert got.tobytes() == whole.tobytes()
+
+
+@pytest.mark.parametrize("params", [{"T": 0.8, "n": 3.0, "delay": 0.25},
+                                    {"T": 0.5, "n": 2.5, "delay": 0.0}])
+def test_a_long_convolution_in_chunks_is_the_whole_one_to_rounding(params, monkeypatch):
+    """A model without a recursion (an equal-lag chain of order 3, a non-integer order):
+    overlap-add over chunks of the input, the pulse response cut at the model's memory,
+    gives the whole convolution to rounding; below a chunk nothing changes."""
+    rng = np.random.default_rng(9)
+    t = np.arange(30_000) * 0.1
+    u = 5.0 + np.repeat(rng.normal(0.0, 1.0, 60), 500)  # steps every 50 s
+    p = {"K": 1.0, **params}
+    model = ProcessModel("n_lags", {**p, "K": 2.0})
+    whole = basis.forced_response("n_lags", p, t, u - 5.0, 0.1)
+    public = simulation.simulate(model, t, u, 5.0, 1.0, dt=0.1)
+    assert np.max(np.abs(whole)) > 1.0  # the steps move it
+    assert np.max(np.abs(public - 1.0 - 2.0 * whole)) < 1e-12 * np.max(np.abs(public))
+    for chunk in (999, 4096):  # the pulse response (a few hundred samples) spans chunks
+        monkeypatch.setattr(simulation, "CHUNK", chunk)
+        got = basis.forced_response("n_lags", p, t, u, 0.1, u0=5.0)
+        assert np.max(np.abs(got - whole)) < 1e-12 * np.max(np.abs(whole))
+        got = simulation.simulate(model, t, u, 5.0, 1.0, dt=0.1)
+        assert np.max(np.abs(got - public)) < 1e-12 * np.max(np.abs(public))
+    monkeypatch.setattr(simulation, "CHUNK", t.size)
+    assert basis.forced_response("n_lags", p, t, u - 5.0, 0.1).tobytes() == whole.tobytes()
+    assert simulation.simulate(model, t, u, 5.0, 1.0, dt=0.1).tobytes() == public.tobytes()
 
 
 def test_step_gain_columns_are_made_when_needed_and_dropped_when_settled(monkeypatch):
