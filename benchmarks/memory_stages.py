@@ -1,11 +1,12 @@
 """Where a long log's run peaks in memory: the resident set sampled per stage and per step of
 the analysis, with the Python stack where each step peaked (issue 14 item 6).
 
-    python benchmarks/memory_stages.py LOG.csv [--out DIR]
+    python benchmarks/memory_stages.py LOG.csv [--out DIR] [--events all]
 
 ``LOG.csv`` is a ``time,u,y`` log, e.g. one that ``benchmarks/scale.py --keep DIR`` wrote.
 The stages of ``pipeline run`` are run in this process as ``benchmarks/scale.py`` runs
-them (load, segment, analyse with event 0 identifying, report), while a thread reads the
+them (load, segment, analyse with event 0 identifying, or with ``--events all`` every
+event as ``pipeline identify --events all`` does, report), while a thread reads the
 resident set (``/proc/self/statm``) every 2 ms. Each stage and each analysis step
 (:data:`STEPS`, wrapped to say when they run) gets its peak over the resident set after
 the imports, against the raw ``t, u, y`` arrays (``3 x 8 x samples`` bytes), and the stack
@@ -37,7 +38,10 @@ STEPS = [("pipeline.analysis", "segment"), ("pipeline.analysis", "event_states")
          ("pipeline.analysis", "_event_fits"), ("pipeline.analysis", "_with_information_criteria"),
          ("pipeline.analysis", "recommend"), ("pipeline.consistency", "event_estimates"),
          ("pipeline.consistency", "step_gains"), ("pipeline.analysis", "grade"),
-         ("pipeline.grade", "closed_loop_flag"), ("pipeline.grade", "fit_flags")]
+         ("pipeline.grade", "closed_loop_flag"), ("pipeline.grade", "fit_flags"),
+         ("pipeline.analysis", "_joint_fits"), ("pipeline.analysis", "_held_out"),
+         ("pipeline.joint", "refine_span"), ("pipeline.joint", "cross_validate"),
+         ("pipeline.joint", "_stepped_folds"), ("pipeline.refine", "_finish")]
 PAGE = os.sysconf("SC_PAGE_SIZE")
 
 
@@ -94,7 +98,9 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("log", type=Path)
     ap.add_argument("--out", type=Path, default=None, help="report folder (a temporary one)")
+    ap.add_argument("--events", default="0", help="identification events: all, or 0,2")
     a = ap.parse_args()
+    events = "all" if a.events == "all" else tuple(int(v) for v in a.events.split(","))
     import importlib
 
     import pipeline
@@ -117,7 +123,7 @@ def main() -> None:
 
         rec = stage("load", lambda: pipeline.load(a.log, input="u", output="y", time="time"))
         stage("segment", lambda: pipeline.segment(rec))
-        res = stage("analyse", lambda: pipeline.analyse(rec, AnalysisOptions(events=(0,))))
+        res = stage("analyse", lambda: pipeline.analyse(rec, AnalysisOptions(events=events)))
         run = RunResult([res], config=str(a.log), created="2026-01-01T00:00:00+00:00")
         stage("report", lambda: write_run(a.out or Path(tmp), run, run.to_doc(), title="m"))
     raw = 3 * 8 * rec.n_samples

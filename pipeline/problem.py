@@ -121,8 +121,8 @@ class Problem:
             x, nuis = self.columns(p)
             return np.column_stack([x, nuis])
         x0, nuis = self.columns({**p, **dict.fromkeys(self.linear, 0.0)})
-        xs = [self.columns({**p, **dict.fromkeys(self.linear, 0.0), n: 1.0})[0] - x0
-              for n in self.linear]
+        xs = [self.forced({**p, **dict.fromkeys(self.linear, 0.0), n: 1.0}) - x0
+              for n in self.linear]  # the forced response alone: columns()' first
         return np.column_stack([x0, *xs, nuis])
 
     def columns(self, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:

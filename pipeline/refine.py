@@ -147,7 +147,7 @@ def refine_model(t, u, y, structure: str, *, u_ref: float,
     scored on the events it left out, its intervals never read."""
     opt = options or RefineOptions()
     o = _optimum(t, u, y, structure, u_ref, starts, mask, initial_state, fixed, opt)
-    _, c, _, u0 = _linear_fit(o.problem, o.params, u_ref)
+    _, _, c, _, u0 = _linear_fit(o.problem, o.params, u_ref)
     return _model(o.problem.structure, o.params, float(c[0]), {}, {})[0], u0
 
 
@@ -270,9 +270,11 @@ def _integer(prob: Problem, space: Space, fixed, p_best, ints, dt, span, opt,
 def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p``."""
-    a, c, rank, u0 = _linear_fit(prob, p, u_ref)
-    rows_resid = prob.y - prob.rows(a) @ c
-    fitted = a[prob.mask] @ c
+    a, rows, c, rank, u0 = _linear_fit(prob, p, u_ref)
+    rows_resid = prob.y - rows @ c
+    fitted = a @ c  # then masked: not a masked copy of the span's design (n x 2-6)
+    del a  # the design is not needed by the Jacobian's own simulations
+    fitted = fitted if prob.full else fitted[prob.mask]
     resid = y_fit - fitted
     K, y0 = float(c[0]), float(c[1])
     free = list(space.names)
@@ -302,15 +304,17 @@ def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nf
 
 
 def _linear_fit(prob: Problem, p, u_ref: float
-                ) -> tuple[np.ndarray, np.ndarray, int, float]:
-    """``(span design, linear coefficients, their rank, input balance point)`` at ``p``
-    (the balance point ``u_ref`` unless an integrating structure's is estimated)."""
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
+    """``(span design, its criterion rows, linear coefficients, their rank, input balance
+    point)`` at ``p`` (the balance point ``u_ref`` unless an integrating structure's is
+    estimated)."""
     a = prob.design(p)
-    c, rank = solve(prob.rows(a), prob.y)
+    rows = prob.rows(a)
+    c, rank = solve(rows, prob.y)
     u0 = u_ref
     if prob.balance and float(c[0]) != 0:
         u0 = u_ref - float(c[2]) / float(c[0])
-    return a, c, rank, float(u0)
+    return a, rows, c, rank, float(u0)
 
 
 def _model(structure: str, p, K: float, ci, std) -> tuple[ProcessModel, dict, dict]:
