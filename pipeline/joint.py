@@ -86,7 +86,7 @@ def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], s
     candidate starts of ``models``, :func:`pipeline.search.candidate_starts`)."""
     s, state, args, kw = _span_problem(record, events, ident, structure, models, states,
                                        exclude, starts)
-    ref = refine(*args, **kw, options=options)
+    ref = refine(*args, **kw, options=span_options(options, ident))
     return replace(ref, initial_state=state if state == "steady" else s.label), s
 
 
@@ -99,7 +99,7 @@ def _refit_model(record: Record, events: Sequence[Event], ident: Sequence[int],
     (:func:`pipeline.refine.refine_model`: without the intervals a fold never reads)."""
     _, _, args, kw = _span_problem(record, events, ident, structure, models, states,
                                    exclude, starts)
-    return refine_model(*args, **kw, options=options)
+    return refine_model(*args, **kw, options=span_options(options, ident))
 
 
 def _span_problem(record: Record, events: Sequence[Event], ident: Sequence[int],
@@ -115,6 +115,23 @@ def _span_problem(record: Record, events: Sequence[Event], ident: Sequence[int],
           "starts": candidate_starts(structure, models, horizon) if starts is None
           else starts}
     return s, state, (record.t[sl], record.u[sl], record.y[sl], structure), kw
+
+
+#: Criterion rows per identification event of a fit over several at least (block means of
+#: the span's fit samples beyond, :class:`pipeline.refine.RefineOptions` ``max_rows``; the
+#: search's decimated copy is as fine). The rows of a one-event fit, 600, spread over a
+#: span of many events left about one row per event (600 events of 5,000 samples): the
+#: transient was averaged away within each row, and the decimated search saw about one
+#: sample per event, so a first-order plant (K 2, T 62 s) was fitted as K -1.6, T 1.3 s,
+#: dead time 558 s. At 100 rows a window the rows are a few hundredths of it.
+ROWS_PER_EVENT = 100
+
+
+def span_options(options: RefineOptions | None, ident: Sequence[int]) -> RefineOptions:
+    """The refinement options of a fit over the events ``ident``: at least
+    :data:`ROWS_PER_EVENT` criterion rows per event."""
+    opt = options or RefineOptions()
+    return replace(opt, max_rows=max(opt.max_rows, ROWS_PER_EVENT * len(ident)))
 
 
 #: Cross-validation folds at most: up to this many identification events each is left out
@@ -203,7 +220,7 @@ def _stepped_folds(record: Record, events: Sequence[Event], ident: Sequence[int]
                    ) -> list[tuple[dict[str, float], float] | None]:
     """The fold models by Gauss-Newton steps from the joint fit
     (:func:`pipeline.left_out.left_out_fits`), None for a fold to refit exactly."""
-    opt = options or RefineOptions()
+    opt = span_options(options, ident)
     s = span(events, ident, states)
     sl = slice(s.start, s.stop)
     state = structure_state(joint.model.structure, s.state, events[ident[0]])

@@ -340,3 +340,34 @@ def test_refine_model_is_refine_without_the_intervals(structure, truth, state):
     assert m == ref.model and u0 == ref.u0
     assert (u0 != 1.0) == (state == "estimated")  # the balance point was fitted
     assert m.params == pytest.approx(truth, rel=0.1)
+
+
+def test_a_fit_over_many_short_events_keeps_rows_within_each_event():
+    """1,200 steps of a first-order plant, 200 samples each: a joint fit over them with a
+    one-event fit's 600 criterion rows (and its decimated search: one sample per two
+    events) averaged each transient away and came out as K -1.1, T 2,011 s, dead time
+    2,674 s. With :data:`pipeline.joint.ROWS_PER_EVENT` rows per event it finds the
+    plant."""
+    from pipeline.events import EventData
+    from pipeline.joint import ROWS_PER_EVENT, span_fit, span_options
+    from pipeline.refine_record import event_states
+    from pipeline.segmentation import segment
+    n, n_events, dt = 240_000, 1200, 0.1
+    rng = np.random.default_rng(0)
+    w = n // (n_events + 1)
+    levels = 5.0 + (-1.0) ** np.arange(n_events) * rng.uniform(0.6, 1.4, n_events)
+    t = np.arange(n) * dt
+    u = np.concatenate([np.full(w, 5.0), np.repeat(levels, w), np.full(n - w * (n_events + 1),
+                                                                       levels[-1])])
+    truth = ProcessModel("first_order", {"K": 2.0, "T": w * dt / 8, "delay": 0.3})
+    y = simulate(truth, t, u, 5.0, 20.0) + rng.normal(0.0, 0.02, n)
+    rec = make_record(t, u, y, name="many", source="<many>")
+    events = segment(rec)
+    assert len(events) == n_events
+    ident = list(range(n_events))
+    assert span_options(None, ident).max_rows == ROWS_PER_EVENT * n_events
+    start = identify(EventData.from_event(rec, events[0]), "first_order")
+    fit = span_fit(rec, events, ident, "lsq_first_order", "first_order", models=[start.model],
+                   states=event_states(rec, events))
+    assert fit.ok and fit.events == tuple(ident)
+    assert fit.model.params == pytest.approx(truth.params, rel=0.02)
