@@ -172,7 +172,7 @@ def held_out_events(ident: Sequence[int], event: int, at_most: int = MAX_FOLDS
 
 
 def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int],
-                   joint: Refinement, *, states: Sequence[str],
+                   joint: ProcessModel, *, states: Sequence[str],
                    options: RefineOptions | None = None) -> tuple[float, list[dict]]:
     """Leave-one-event-out (leave-a-fold-out beyond :data:`MAX_FOLDS` events,
     :func:`folds_of`): for each fold, the joint fit without its events (started from the
@@ -198,12 +198,12 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
     folds, errors = [], []
     for held, step in zip(held_out, approx, strict=True):
         if step is None:  # the steps did not converge: the exact refit
-            model, u0 = _refit_model(record, events, ident, joint.model.structure,
-                                     models=[joint.model], states=states, exclude=held,
+            model, u0 = _refit_model(record, events, ident, joint.structure,
+                                     models=[joint], states=states, exclude=held,
                                      options=options,
-                                     starts=[dict(joint.model.params)] if stepped else None)
+                                     starts=[dict(joint.params)] if stepped else None)
         else:
-            model, u0 = ProcessModel(joint.model.structure, step[0]), step[1]
+            model, u0 = ProcessModel(joint.structure, step[0]), step[1]
         u0 = u0 if model.integrating else None
         _, e = heldout_residuals(model, record, list(events), held, u0)
         errors.append(e)
@@ -215,7 +215,7 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
 
 
 def _stepped_folds(record: Record, events: Sequence[Event], ident: Sequence[int],
-                   joint: Refinement, held_out: Sequence[Sequence[int]],
+                   joint: ProcessModel, held_out: Sequence[Sequence[int]],
                    states: Sequence[str], options: RefineOptions | None
                    ) -> list[tuple[dict[str, float], float] | None]:
     """The fold models by Gauss-Newton steps from the joint fit
@@ -223,11 +223,11 @@ def _stepped_folds(record: Record, events: Sequence[Event], ident: Sequence[int]
     opt = span_options(options, ident)
     s = span(events, ident, states)
     sl = slice(s.start, s.stop)
-    state = structure_state(joint.model.structure, s.state, events[ident[0]])
+    state = structure_state(joint.structure, s.state, events[ident[0]])
     masks = [span(events, ident, states, exclude=held).mask for held in held_out]
-    return left_out_fits(record.t[sl], record.u[sl], record.y[sl], joint.model.structure,
+    return left_out_fits(record.t[sl], record.u[sl], record.y[sl], joint.structure,
                          u_ref=s.u_ref, masks=masks, initial_state=state,
-                         params=joint.model.params, free_lags=opt.free_lags,
+                         params=joint.params, free_lags=opt.free_lags,
                          max_rows=opt.max_rows)
 
 
@@ -261,11 +261,12 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
                              options=options)
         extra = {"events": ident} if many else {}
         model, diag, ci = result_parts(ref, **extra)
+        del ref  # its fit and residuals over the span (record-long on a long log)
         metrics = {}
         if cross_validation and many:
             fold_opt = replace(options or RefineOptions(), n_starts=1, bootstrap=0)
             metrics["mse_cross_validation"], diag["folds"] = cross_validate(
-                record, events, ident, ref, states=states, options=fold_opt)
+                record, events, ident, model, states=states, options=fold_opt)
         return Fit(method, ident[0], "ok", None, model, metrics, diag, ci, events=many)
     except Exception as exc:  # a bug in one fit must not lose the record's other fits
         return Fit(method, ident[0], "failed", f"internal error: {type(exc).__name__}: {exc}",

@@ -41,6 +41,12 @@ FAR_BOUND = 1e-3
 #: most are tried.
 MORE_STARTS = 3
 
+#: Bytes of residual vectors one search keeps to reuse (:func:`multistart`): a one-event
+#: search's hundreds of evaluations of at most 600 rows are all kept; a fit over 2,000
+#: events has 200,000 rows (:data:`pipeline.joint.ROWS_PER_EVENT`), 1.6 MB a residual,
+#: and keeping them all held up to half a gigabyte.
+MEMO_BYTES = 32 << 20
+
 #: Start values of dimensionless parameters (templates; the time parameters are scaled).
 DIMENSIONLESS_STARTS: dict[str, tuple[float, ...]] = {"zeta": (0.4, 1.0, 2.0),
                                                       "n": (2.0, 4.0)}
@@ -220,10 +226,13 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
     # every run starts where a residual was already evaluated (a candidate's ranking, the
     # pilot's last point), and least_squares evaluates it again: the same z gives the
     # same residual, so it is kept (a read-only view) and not simulated twice; the
-    # residuals of one search (rows of at most max_rows, ~100 evaluations) are kept
+    # residuals of one search are kept up to MEMO_BYTES, the oldest dropped beyond (a
+    # dropped one is simulated again if asked for: the same numbers)
     seen_r: dict[bytes, np.ndarray] = {}
+    held = 0
 
     def safe(z):
+        nonlocal held
         key = np.asarray(z, np.float64).tobytes()
         r = seen_r.get(key)
         if r is None:
@@ -231,6 +240,9 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
             r = r.view() if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
             r.setflags(write=False)
             seen_r[key] = r
+            held += r.nbytes
+            while held > MEMO_BYTES and len(seen_r) > 1:
+                held -= seen_r.pop(next(iter(seen_r))).nbytes
         return r
 
     tol = np.where(space.log, DISTINCT_LOG, DISTINCT_LINEAR)

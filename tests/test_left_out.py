@@ -143,7 +143,7 @@ def test_cross_validation_beyond_ten_events_steps_and_matches_exact_refits():
     opt = RefineOptions(n_starts=1, coarse=False)
     ref, _ = refine_span(rec, events, ident, "first_order", models=[joint.model],
                          states=states)
-    mse, stepped = cross_validate(rec, events, ident, ref, states=states, options=opt)
+    mse, stepped = cross_validate(rec, events, ident, ref.model, states=states, options=opt)
     errors = []
     for f in stepped:
         exact, _ = refine_span(rec, events, ident, "first_order", models=[ref.model],

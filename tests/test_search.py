@@ -57,3 +57,31 @@ def test_no_start_limit_tries_every_distinct_start():
     starts = [{"T": 200.0}, {"T": 400.0}, {"T": 30.0}, {"T": 0.5}]
     run = multistart(_two_basins, SPACE, starts, 0, 300)
     assert run.runs == 4 and run.params["T"] == pytest.approx(2.0, rel=1e-3)
+
+
+def test_kept_residuals_are_bounded_and_change_nothing(monkeypatch):
+    """A search over a long residual (20,000 rows: a fit over many events) keeps at most
+    MEMO_BYTES of residuals to reuse; with room for one alone it simulates a start again
+    where it would have reused it, and ends at the same parameters and cost."""
+    import pipeline.search as search
+    t = np.linspace(0.0, 10.0, 20_000)
+    y = 1.0 - np.exp(-t / 2.0)
+    calls = []
+
+    def fun(z):
+        calls.append(1)
+        return y - (1.0 - np.exp(-t / float(np.exp(z[0]))))
+
+    real = search.multistart
+
+    def run(budget):
+        calls.clear()
+        monkeypatch.setattr(search, "MEMO_BYTES", budget)
+        out = real(fun, SPACE, [{"T": 1.0}, {"T": 5.0}, {"T": 30.0}], 2, 300)
+        return out, len(calls)
+
+    roomy, n_roomy = run(1 << 40)
+    tight, n_tight = run(1)
+    assert tight.params == roomy.params and tight.cost == roomy.cost
+    assert roomy.params["T"] == pytest.approx(2.0, rel=1e-6)
+    assert n_tight > n_roomy  # the starts' residuals were simulated again
