@@ -72,11 +72,12 @@ def main() -> None:
         ref, s = joint.refine_span(rec, events, ident, st, models=models, states=states,
                                    options=opt.refine)
         t0 = time.process_time()
-        mse, folds = joint.cross_validate(rec, events, ident, ref, states=states,
+        mse, folds = joint.cross_validate(rec, events, ident, ref.model, states=states,
                                           options=fold_opt)
         t1 = time.process_time()
         errors, ratios = [], []
-        cost = _criterion(rec, events, ident, states, st, s)
+        cost = _criterion(rec, events, ident, states, st, s,
+                          joint.span_options(fold_opt, ident).max_rows)
         for f in folds:
             exact, _ = joint.refine_span(rec, events, ident, st, models=[ref.model],
                                          states=states, exclude=f["events"], options=fold_opt)
@@ -94,18 +95,18 @@ def main() -> None:
               f"{mse / exact_mse - 1:.1e} | {worst} |")
 
 
-def _criterion(rec, events, ident, states, structure, s):
+def _criterion(rec, events, ident, states, structure, s, rows):
     """The fold's criterion (sum of squared rows, gain and offset solved) at given
-    parameters: the same rows as the refit's."""
+    parameters: the same rows as the refit's (``rows`` at most)."""
     sl = slice(s.start, s.stop)
     base = Problem.of(rec.t[sl], rec.u[sl], rec.y[sl], structure, u_ref=s.u_ref,
                       mask=s.mask, initial_state=structure_state(structure, s.state,
                                                                  events[ident[0]]),
-                      free_lags=3, max_rows=600)
+                      free_lags=3, max_rows=rows)
 
     def cost(params, held):
         f = base.with_mask(joint.span(events, ident, states, exclude=held).mask,
-                           rec.y[sl], 600)
+                           rec.y[sl], rows)
         a = f.design_rows(params)
         r = f.y - a @ solve(a, f.y)[0]
         return float(r @ r)

@@ -5,12 +5,16 @@ its CPU is the filtering of the model simulations alone.
                                         [--reps 3]
 
 Every least-squares search, interval, cross-validation fold and held-out score of the
-command simulates its model by ``scipy.signal.lfilter`` (:mod:`pipeline.basis`: the
-exact ZOH recursion). That filtering is the arithmetic of the searches the command runs:
-any implementation of the same searches, with no Python overhead at all, does at least
-it, and the number of simulations is set by the searches (their starts, iterations,
-finite-difference Jacobians), so it cannot fall without changing which optimum is
-found. This script runs the command in this process with each of those calls timed
+command simulates its model, and on a uniform grid a model of order 2 or less (every
+structure but the long and non-integer equal-lag chains) by ``scipy.signal.lfilter``
+(:mod:`pipeline.basis`: the exact ZOH recursion). That filtering is part of the
+arithmetic of the searches the command runs: any implementation of the same searches,
+with no Python overhead at all, does at least it, and the number of simulations is set
+by the searches (their starts, iterations, finite-difference Jacobians), so it cannot
+fall without changing which optimum is found. The equal-lag chains' convolutions and
+irregular grids' propagation are not timed: the floor printed is a lower bound.
+
+This script runs the command in this process with each ``lfilter`` call timed
 (``time.perf_counter`` around it, the wrapper's own cost outside the timed interval),
 and, before and after, ``python benchmarks/scale.py --worker bare LOG`` in a fresh
 process (``polars.read_csv`` and the three columns as numpy arrays, the issue's bare
@@ -75,9 +79,9 @@ def main() -> None:
     filters: dict[str, list[float]] = collections.defaultdict(lambda: [0, 0.0])
     lfilter = signal.lfilter
 
-    def timed(b, a, x, axis=-1, zi=None):
+    def timed(num, den, x, axis=-1, zi=None):
         t = time.perf_counter()
-        out = lfilter(b, a, x, axis=axis, zi=zi)
+        out = lfilter(num, den, x, axis=axis, zi=zi)
         dt = time.perf_counter() - t
         f = filters[bucket(int(np.size(x)))]
         f[0] += 1

@@ -104,6 +104,9 @@ def main() -> None:
     import importlib
 
     import pipeline
+    from pipeline.heap import polars_returns_freed_pages
+
+    polars_returns_freed_pages()  # as the command line does, before polars is imported
     import pipeline.io.delimited  # noqa: F401  (imported before the baseline is read)
     from pipeline.analysis import AnalysisOptions
     from pipeline.report.build import write_run

@@ -22,10 +22,7 @@ pipeline`` and the command line start fast::
 
 from importlib import import_module
 
-from .heap import polars_returns_freed_pages
 from .version import __version__
-
-polars_returns_freed_pages()  # before anything imports polars (see pipeline.heap)
 
 #: public name -> module that defines it
 _API = {

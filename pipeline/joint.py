@@ -83,7 +83,8 @@ def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], s
                 starts: Sequence[dict[str, float]] | None = None
                 ) -> tuple[Refinement, Span]:
     """One model of ``structure`` over :func:`span`, from ``starts`` (default: the
-    candidate starts of ``models``, :func:`pipeline.search.candidate_starts`)."""
+    candidate starts of ``models``, :func:`pipeline.search.candidate_starts`), with at
+    least :data:`ROWS_PER_EVENT` criterion rows per event (:func:`span_options`)."""
     s, state, args, kw = _span_problem(record, events, ident, structure, models, states,
                                        exclude, starts)
     ref = refine(*args, **kw, options=span_options(options, ident))

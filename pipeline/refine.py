@@ -273,7 +273,8 @@ def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nf
     a, rows, c, rank, u0 = _linear_fit(prob, p, u_ref)
     rows_resid = prob.y - rows @ c
     fitted = a @ c  # then masked: not a masked copy of the span's design (n x 2-6)
-    del a  # the design is not needed by the Jacobian's own simulations
+    del a, rows  # the design (and its rows: itself where every sample is a row) is not
+    # needed by the Jacobian's own simulations
     fitted = fitted if prob.full else fitted[prob.mask]
     resid = y_fit - fitted
     K, y0 = float(c[0]), float(c[1])

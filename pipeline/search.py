@@ -226,16 +226,18 @@ def multistart(fun: Callable[[np.ndarray], np.ndarray], space: Space,
     # every run starts where a residual was already evaluated (a candidate's ranking, the
     # pilot's last point), and least_squares evaluates it again: the same z gives the
     # same residual, so it is kept (a read-only view) and not simulated twice; the
-    # residuals of one search are kept up to MEMO_BYTES, the oldest dropped beyond (a
-    # dropped one is simulated again if asked for: the same numbers)
+    # residuals of one search are kept up to MEMO_BYTES, the least recently used dropped
+    # beyond (a dropped one is simulated again if asked for: the same numbers)
     seen_r: dict[bytes, np.ndarray] = {}
     held = 0
 
     def safe(z):
         nonlocal held
         key = np.asarray(z, np.float64).tobytes()
-        r = seen_r.get(key)
-        if r is None:
+        r = seen_r.pop(key, None)
+        if r is not None:
+            seen_r[key] = r  # the most recently used now (dicts keep insertion order)
+        else:
             r = fun(z)
             r = r.view() if np.all(np.isfinite(r)) else np.full(r.size, 1e150)
             r.setflags(write=False)

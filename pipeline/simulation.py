@@ -117,13 +117,13 @@ def pulse_length(model: ProcessModel, dt: float, n: int) -> int:
 
 def convolved(h: np.ndarray, u: np.ndarray, u0: float = 0.0) -> np.ndarray:
     """``convolve(u - u0, h)[:n]``: FFT (overlap-add) beyond 64 taps. Up to
-    :data:`pipeline.heap.CHUNK` samples one convolution; beyond, a chunk of the input at
-    a time added into the one output array (the whole input's deviation and the FFT
+    :data:`pipeline.heap.CHUNK` samples (or taps) one convolution; beyond, a chunk of the
+    input at a time added into the one output array (the whole input's deviation and the FFT
     convolution's temporaries over a 10 M-sample record were about 3x its 80 MB; the
     sums are the whole convolution's in another order: the same to rounding)."""
     n = u.size
     conv = signal.oaconvolve if h.size > 64 else np.convolve
-    if n <= CHUNK:
+    if n <= CHUNK or h.size >= CHUNK:  # (a pulse response this long: chunks save nothing)
         return conv(u - u0 if u0 else u, h)[:n]
     out = np.zeros(n)
     for s in range(0, n, CHUNK):

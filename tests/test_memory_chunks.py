@@ -1,17 +1,17 @@
 """Memory at scale (issue 14 item 6): the record-long passes that are now made a chunk at a
 time give the same numbers, to the bit, as one pass over the whole array (a convolution:
-to rounding), and the
-per-step gains' columns are made when the solver reaches them and forgotten once settled,
-not all held at once."""
+to rounding), and the per-step gains' columns are made when the solver reaches them and
+forgotten once settled, not all held at once."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import signal
 from scipy.stats import rankdata
 
 from pipeline import basis, consistency, ranks, simulation, superposition
-from pipeline.models import ProcessModel
+from pipeline.models import STRUCTURES, ProcessModel
 from pipeline.report import drawing
 from pipeline.segmentation import SegmentOptions, segment
 from pipeline.synth import step_record
@@ -86,9 +86,14 @@ def test_a_long_convolution_in_chunks_is_the_whole_one_to_rounding(params, monke
         assert np.max(np.abs(got - whole)) < 1e-12 * np.max(np.abs(whole))
         got = simulation.simulate(model, t, u, 5.0, 1.0, dt=0.1)
         assert np.max(np.abs(got - public)) < 1e-12 * np.max(np.abs(public))
-    monkeypatch.setattr(simulation, "CHUNK", t.size)
-    assert basis.forced_response("n_lags", p, t, u - 5.0, 0.1).tobytes() == whole.tobytes()
-    assert simulation.simulate(model, t, u, 5.0, 1.0, dt=0.1).tobytes() == public.tobytes()
+    # below a chunk: one convolution of the pulse response over the whole input, as
+    # before chunks (the same numbers to the bit)
+    k = np.arange(t.size) * 0.1
+    h = np.diff(basis.step_delayed(STRUCTURES["n_lags"], p, k), prepend=0.0)
+    h = h[: np.flatnonzero(np.abs(h) > 1e-15 * np.abs(h).sum())[-1] + 1]
+    assert whole.tobytes() == signal.oaconvolve(u - 5.0, h)[: t.size].tobytes()
+    h = simulation.pulse_response(model, 0.1, t.size)
+    assert public.tobytes() == (signal.oaconvolve(u - 5.0, h)[: t.size] + 1.0).tobytes()
 
 
 def test_step_gain_columns_are_made_when_needed_and_dropped_when_settled(monkeypatch):
