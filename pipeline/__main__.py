@@ -1,5 +1,16 @@
-"""``python -m pipeline`` runs the command line."""
+"""``python -m pipeline`` and the ``pipeline`` command: the command line, in a process that
+is the command's own, so polars' allocator is set up first (:func:`pipeline.heap.
+polars_returns_freed_pages`, before anything imports polars; pool workers inherit it)."""
 
-from .cli import app
+from .heap import polars_returns_freed_pages
 
-app(prog_name="pipeline")
+
+def main() -> None:
+    polars_returns_freed_pages()
+    from .cli import app
+
+    app(prog_name="pipeline")
+
+
+if __name__ == "__main__":
+    main()

@@ -19,11 +19,8 @@ from rich.table import Table
 
 from .cli_data import with_data_options
 from .errors import ExitCode, UserError
-from .heap import polars_returns_freed_pages
 from .quoting import printable
 from .version import __version__
-
-polars_returns_freed_pages()  # the command's process, before anything imports polars
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Batch system identification from step and impulse tests.")

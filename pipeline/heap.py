@@ -15,10 +15,10 @@ polars allocates through its own jemalloc (Linux), which keeps the pages a CSV p
 freed as "dirty" for reuse: at 1 M rows the load held 101 MB after reading 24 MB of
 arrays, under every later stage's peak. :func:`polars_returns_freed_pages` asks it to
 give them back at once (:data:`POLARS_MALLOC_CONF`). The command line does it when it
-starts, before polars is imported (its pool workers inherit it); a program that uses
-the library calls it first thing, or sets the variable itself. ``import pipeline`` does
-not: it would change the environment of the importing program and of every process it
-starts.
+starts (``pipeline.__main__``), before polars is imported (its pool workers inherit it);
+a program that uses the library calls it first thing, or sets the variable itself.
+``import pipeline`` does not: it would change the environment of the importing program
+and of every process it starts.
 """
 
 from __future__ import annotations

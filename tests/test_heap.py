@@ -43,7 +43,8 @@ import json, os, sys
 def rss():
     with open("/proc/self/statm") as fh:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-import pipeline.cli  # the command line's process: it sets polars' allocator up
+from pipeline.heap import polars_returns_freed_pages
+polars_returns_freed_pages()  # as the command line does when it starts
 import pipeline
 rec = pipeline.load(sys.argv[1], input="u", output="y", time="time")  # imports, warm-up
 before = rss()
@@ -87,16 +88,24 @@ def test_the_load_holds_the_records_arrays_not_polars_freed_pages(tmp_path):
     assert ours["held"] < theirs["held"] / 2
 
 
-def test_import_pipeline_leaves_the_environment_alone():
-    """Only the command line sets polars' allocator up: a program that imports the
-    library (and loads a log with it: polars imported) keeps polars' own configuration,
-    and its child processes theirs."""
+def test_the_command_sets_polars_allocator_up_and_import_pipeline_does_not():
+    """The command's entry point sets polars' allocator up (a user's setting kept); a
+    program that imports the library (and loads a log with it: polars imported) keeps
+    polars' own configuration, and its child processes theirs."""
     import os
     import subprocess
     env = {k: v for k, v in os.environ.items() if k != "_RJEM_MALLOC_CONF"}
-    code = ("import os, pipeline, pipeline.api; "
-            "print(os.environ.get('_RJEM_MALLOC_CONF'))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, env=env)
+    show = "import os; print(os.environ.get('_RJEM_MALLOC_CONF'))"
+    command = ("import sys, contextlib; sys.argv = ['pipeline', '--version']\n"
+               "from pipeline.__main__ import main\n"
+               "with contextlib.suppress(SystemExit): main()\n" + show)
+
+    def child(code, **extra):
+        return subprocess.run([sys.executable, "-c", code], capture_output=True,
+                              text=True, check=True, env={**env, **extra}
+                              ).stdout.strip().splitlines()[-1].split(",")
+
+    assert child(command) == [heap.POLARS_MALLOC_CONF]
+    assert child(command, _RJEM_MALLOC_CONF="dirty_decay_ms:10000") == ["dirty_decay_ms:10000"]
     # polars writes its own defaults there when it is imported; ours is not among them
-    assert heap.POLARS_MALLOC_CONF not in out.stdout.strip().split(",")
+    assert heap.POLARS_MALLOC_CONF not in child("import pipeline, pipeline.api\n" + show)
