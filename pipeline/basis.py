@@ -43,7 +43,7 @@ from .discretise import discrete_poles
 from .heap import CHUNK
 from .models import PARAMETERS, STRUCTURES, ProcessModel, Structure
 from .record import infer_sample_time
-from .simulation import convolved, pulse_length, simulate
+from .simulation import convolved, pulse_length, pulse_response, simulate
 
 #: Poles of a rational model up to this order are filtered recursively (beyond it an
 #: expanded polynomial with poles near 1 loses precision, see pipeline.simulate).
@@ -85,10 +85,8 @@ def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.n
     q = {**p, "K": 1.0}
     iir = None if dt is None else _iir(spec, q, dt)
     if dt is not None and iir is None:  # the exact pulse response, convolved
-        k = np.arange(pulse_length(ProcessModel(structure, q), dt, n), dtype=np.float64) * dt
-        h = np.diff(step_delayed(spec, q, k), prepend=0.0)
-        big = np.flatnonzero(np.abs(h) > 1e-15 * max(float(np.abs(h).sum()), 1e-300))
-        return convolved(h[: big[-1] + 1] if big.size else h[:1], du, u0)
+        m = ProcessModel(structure, q)
+        return convolved(pulse_response(m, dt, pulse_length(m, dt, n)), du, u0)
     if n > CHUNK and iir is not None:
         return _filtered(*iir, du, u0)
     if u0:
