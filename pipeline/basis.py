@@ -208,6 +208,13 @@ def free_basis(structure: str, p: dict[str, float], t_rel: np.ndarray, horizon: 
     """Columns ``S(t' + tau_j) - S(t')`` (``t' = t_rel >= 0``, time since the window start)
     for ``tau_j`` geometrically spread from a quarter to four times the model's time scale
     (the dead time added; ``horizon`` when the time scale is not finite or zero)."""
+    return np.column_stack(free_columns(structure, p, t_rel, horizon, n_max))
+
+
+def free_columns(structure: str, p: dict[str, float], t_rel: np.ndarray, horizon: float,
+                 n_max: int = 3) -> list[np.ndarray]:
+    """:func:`free_basis`' columns as separate arrays (a span-long design is reduced a
+    column at a time, :class:`pipeline.problem.Columns`)."""
     spec = STRUCTURES[structure]
     q = {**p, "K": 1.0}
     m = basis_lags(spec, q, n_max)
@@ -217,7 +224,7 @@ def free_basis(structure: str, p: dict[str, float], t_rel: np.ndarray, horizon: 
     ts += float(q.get("delay", 0.0))
     taus = ts * np.geomspace(0.25, 4.0, m) if m > 1 else np.array([ts])
     s_now = step_delayed(spec, q, t_rel)
-    return np.column_stack([step_delayed(spec, q, t_rel + tau) - s_now for tau in taus])
+    return [step_delayed(spec, q, t_rel + tau) - s_now for tau in taus]
 
 
 def offset_response(structure: str, p: dict[str, float], t_rel: np.ndarray) -> np.ndarray:

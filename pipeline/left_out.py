@@ -85,7 +85,7 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Sequence[np.n
     points = _neighbours(space, z0, dt)
     designs: list[list[np.ndarray] | None] = [[] for _ in folds]
     for z in points:
-        d = base.span_design({**held, **space.from_z(z)})
+        d = base.columns({**held, **space.from_z(z)})
         for k, f in enumerate(folds):
             r = None if designs[k] is None else _guarded(_residual, f, f.reduce(d))
             designs[k] = None if r is None else [*designs[k], r]

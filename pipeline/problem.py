@@ -1,7 +1,14 @@
 """The data of one least-squares refinement (:mod:`pipeline.refine`): the span, the fit
 samples and their criterion rows, and the design columns of the separable problem at a
 parameter set (the forced response, the offset, the free response of an estimated initial
-state, an integrating structure's input balance)."""
+state, an integrating structure's input balance).
+
+A span can be a whole long record, so nothing span-long is copied that need not be: the
+span's times and input are the caller's arrays (the input's deviation from ``u_ref`` is
+taken a chunk at a time in the simulation, :func:`pipeline.basis.forced_response`), the
+time since the span start is made only for the columns that need it, and the design is
+kept as its columns (:class:`Columns`), reduced to criterion rows one at a time and
+multiplied out a chunk of samples at a time, never stacked into one span-long matrix."""
 
 from __future__ import annotations
 
@@ -12,8 +19,36 @@ from functools import cached_property
 import numpy as np
 
 from . import basis
+from .heap import CHUNK
 from .lstsq import block_bounds, blocks
 from .models import STRUCTURES
+
+
+@dataclass(frozen=True)
+class Columns:
+    """The span columns of a linear solve, in the order of its coefficients: ``forced``
+    (the forced response; with linear parameters it at 0 and its change per unit of each),
+    the offset (all ones: not stored, its rows are :attr:`Problem.offset_rows`), then
+    ``nuisance`` (an integrating structure's input balance, the free response of an
+    estimated state)."""
+
+    forced: list[np.ndarray]
+    nuisance: list[np.ndarray]
+
+    def product(self, c: np.ndarray, mask: np.ndarray | None = None,
+                chunk: int = CHUNK) -> np.ndarray:
+        """``design @ c`` at the samples of ``mask`` (all: None), the design's rows
+        stacked :data:`pipeline.heap.CHUNK` samples at a time (each sample's product is
+        the one of the whole stacked design: the same row by the same coefficients)."""
+        n = self.forced[0].size
+        out = []
+        for s in range(0, n, chunk):
+            e = min(s + chunk, n)
+            a = np.column_stack([*(x[s:e] for x in self.forced), np.ones(e - s),
+                                 *(x[s:e] for x in self.nuisance)])
+            v = a @ c
+            out.append(v if mask is None else v[mask[s:e]])
+        return out[0] if len(out) == 1 else np.concatenate(out)
 
 
 @dataclass(frozen=True)
@@ -23,8 +58,9 @@ class Problem:
     simulated at every sample; averaging only drops within-block noise)."""
 
     structure: str
-    t_rel: np.ndarray  # time since the span start
-    du: np.ndarray  # u - u_ref over the span
+    t: np.ndarray  # the span's times, as given (not copied)
+    u: np.ndarray  # the span's input, as given (not copied)
+    u_ref: float  # the input level the model starts at rest at
     y: np.ndarray  # measured output at the criterion rows
     mask: np.ndarray  # fit samples of the span
     starts: np.ndarray  # first fit sample (index into the masked samples) of each row
@@ -45,7 +81,7 @@ class Problem:
         starting at the first sample) on the samples of ``mask``, in at most ``max_rows``
         criterion rows."""
         t = np.asarray(t, np.float64)
-        base = cls(structure, t - t[0], np.asarray(u, np.float64) - u_ref, np.empty(0),
+        base = cls(structure, t, np.asarray(u, np.float64), float(u_ref), np.empty(0),
                    np.ones(t.size, bool), np.zeros(0, int), np.zeros(0), basis.uniform_step(t),
                    float(t[-1] - t[0]), initial_state, free_lags)
         return base.with_mask(mask, y, max_rows)
@@ -61,6 +97,12 @@ class Problem:
         prob = replace(self, mask=mask, starts=starts, counts=counts, full=bool(mask.all()),
                        bounds=bounds, keep=keep)
         return replace(prob, y=prob.rows(np.asarray(y, np.float64)))
+
+    @cached_property
+    def t_rel(self) -> np.ndarray:
+        """Time since the span start: made when a column needs it (the free response,
+        the input balance, an irregular grid's simulation), not for a fit at rest."""
+        return self.t - self.t[0]
 
     @property
     def estimate_state(self) -> bool:
@@ -87,53 +129,49 @@ class Problem:
     @cached_property
     def offset_rows(self) -> np.ndarray:
         """The rows of the offset column (all ones), which no parameter changes."""
-        return self.rows(np.ones(self.t_rel.size))
+        return self.rows(np.ones(self.t.size))
 
     def design_rows(self, p: Mapping[str, float]) -> np.ndarray:
-        """``rows(design(p))``; at rest the offset is the only nuisance column and its
-        rows are computed once (:attr:`offset_rows`)."""
-        return self.reduce(self.span_design(p))
+        """The criterion rows of the design at ``p`` (:meth:`columns`, :meth:`reduce`)."""
+        return self.reduce(self.columns(p))
 
-    def span_design(self, p: Mapping[str, float]) -> np.ndarray | list[np.ndarray]:
-        """The span columns :meth:`reduce` makes the design rows of: :meth:`design`, or at
-        rest the forced responses alone (the offset's rows are :attr:`offset_rows`). They
-        do not depend on the mask, so problems that differ only in it share them."""
-        if self.estimate_state or self.balance:
-            return self.design(p)
-        base = {**p, **dict.fromkeys(self.linear, 0.0)}
-        x0 = self.forced(base)
-        return [x0, *(self.forced({**base, n: 1.0}) - x0 for n in self.linear)]
+    def reduce(self, cols: Columns) -> np.ndarray:
+        """The design rows of the span columns ``cols``, reduced a column at a time (the
+        same sums as of the stacked design's rows; the columns do not depend on the mask,
+        so problems that differ only in it share them)."""
+        return np.column_stack([*(self.rows(x) for x in cols.forced), self.offset_rows,
+                                *(self.rows(x) for x in cols.nuisance)])
 
-    def reduce(self, d: np.ndarray | list[np.ndarray]) -> np.ndarray:
-        """The design rows of :meth:`span_design`'s columns ``d``."""
-        if isinstance(d, np.ndarray):
-            return self.rows(d)
-        return np.column_stack([*(self.rows(x) for x in d), self.offset_rows])
+    def nuisance_rows(self, cols: Columns) -> np.ndarray:
+        """The rows of the nuisance columns (the offset, then ``cols.nuisance``)."""
+        return np.column_stack([self.offset_rows, *(self.rows(x) for x in cols.nuisance)])
 
     def forced(self, p: Mapping[str, float]) -> np.ndarray:
         """The unit-gain forced response over the span."""
-        return basis.forced_response(self.structure, dict(p), self.t_rel, self.du, self.dt)
+        return basis.forced_response(self.structure, dict(p),
+                                     self.t_rel if self.dt is None else self.t, self.u,
+                                     self.dt, u0=self.u_ref)
 
-    def design(self, p: Mapping[str, float]) -> np.ndarray:
-        """The span columns of the linear solve: the forced response (with ``linear``: at
-        0 and the change per unit of each), then :meth:`columns`' nuisance columns."""
+    def columns(self, p: Mapping[str, float]) -> Columns:
+        """The span columns of the linear solve at ``p``: the forced response (with
+        ``linear``: at 0 and the change per unit of each, the nuisance columns at 0
+        too), then :meth:`nuisance`."""
         if not self.linear:
-            x, nuis = self.columns(p)
-            return np.column_stack([x, nuis])
-        x0, nuis = self.columns({**p, **dict.fromkeys(self.linear, 0.0)})
-        xs = [self.forced({**p, **dict.fromkeys(self.linear, 0.0), n: 1.0}) - x0
-              for n in self.linear]  # the forced response alone: columns()' first
-        return np.column_stack([x0, *xs, nuis])
+            return Columns([self.forced(p)], self.nuisance(p))
+        base = {**p, **dict.fromkeys(self.linear, 0.0)}
+        x0 = self.forced(base)
+        xs = [self.forced({**base, n: 1.0}) - x0 for n in self.linear]
+        return Columns([x0, *xs], self.nuisance(base))
 
-    def columns(self, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, nuisance columns)`` over the whole span."""
-        x = self.forced(p)
-        cols = [np.ones_like(x)]
-        if self.balance:  # an input offset from the start: lagged, or a ramp already steady
+    def nuisance(self, p: Mapping[str, float]) -> list[np.ndarray]:
+        """The span's nuisance columns other than the offset: an integrating structure's
+        input balance (lagged with an estimated state, a ramp on a steady one), and the
+        free-response columns of an estimated state."""
+        cols = []
+        if self.balance:
             cols.append(basis.offset_response(self.structure, dict(p), self.t_rel)
                         if self.estimate_state else self.t_rel)
         if self.estimate_state:
-            b = basis.free_basis(self.structure, dict(p), self.t_rel, self.horizon,
-                                 self.free_lags)
-            cols.extend(b.T)
-        return x, np.column_stack(cols)
+            cols.extend(basis.free_columns(self.structure, dict(p), self.t_rel,
+                                           self.horizon, self.free_lags))
+        return cols

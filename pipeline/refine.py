@@ -44,7 +44,7 @@ import numpy as np
 
 from .lstsq import block_means, project_out, solve
 from .models import STRUCTURES, ProcessModel
-from .problem import Problem
+from .problem import Columns, Problem
 from .search import Run, Space, multistart, search_space, snap
 from .uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
 
@@ -129,9 +129,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
     :class:`Refinement` out."""
     opt = options or RefineOptions()
     o = _optimum(t, u, y, structure, u_ref, starts, mask, initial_state, fixed, opt)
-    y_fit = np.asarray(y, np.float64)[o.search.mask]
-    ref = _finish(o.problem, o.space, o.params, y_fit, initial_state, u_ref, opt, o.nfev,
-                  o.runs)
+    ref = _finish(o.problem, o.space, o.params, y, initial_state, u_ref, opt, o.nfev, o.runs)
     if opt.bootstrap > 0:
         ref = _bootstrap(o.search, o.searched, ref, dict(fixed or {}), opt)
     return ref
@@ -267,19 +265,21 @@ def _integer(prob: Problem, space: Space, fixed, p_best, ints, dt, span, opt,
     return replace(best, nfev=nfev)
 
 
-def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nfev, runs
+def _finish(prob: Problem, space: Space, p, y, initial_state, u_ref, opt, nfev, runs
             ) -> Refinement:
-    """Linear coefficients, the profiled Jacobian and the intervals at ``p``."""
-    a, rows, c, rank, u0 = _linear_fit(prob, p, u_ref)
+    """Linear coefficients, the profiled Jacobian and the intervals at ``p`` (``y``: the
+    span's output). Of the span-long arrays only the fitted output is alive while the
+    Jacobian simulates the span: the design's columns are dropped before it and the
+    residuals made after it."""
+    cols, rows, c, rank, u0 = _linear_fit(prob, p, u_ref)
     rows_resid = prob.y - rows @ c
-    fitted = a @ c  # then masked: not a masked copy of the span's design (n x 2-6)
-    del a, rows  # the design (and its rows: itself where every sample is a row) is not
-    # needed by the Jacobian's own simulations
-    fitted = fitted if prob.full else fitted[prob.mask]
-    resid = y_fit - fitted
+    fitted = cols.product(c, None if prob.full else prob.mask)
+    del cols, rows  # (the rows are a column itself where every sample is a row)
     K, y0 = float(c[0]), float(c[1])
     free = list(space.names)
     jac = _profiled_jacobian(prob, space, p, K)
+    resid = np.asarray(y, np.float64)[prob.mask]  # a copy, made the residuals in place
+    np.subtract(resid, fitted, out=resid)
     factor = variance_factor(rows_resid)
     cov = covariance(jac, rows_resid, rank + len(free), factor)
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -305,12 +305,12 @@ def _finish(prob: Problem, space: Space, p, y_fit, initial_state, u_ref, opt, nf
 
 
 def _linear_fit(prob: Problem, p, u_ref: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, float]:
-    """``(span design, its criterion rows, linear coefficients, their rank, input balance
-    point)`` at ``p`` (the balance point ``u_ref`` unless an integrating structure's is
-    estimated)."""
-    a = prob.design(p)
-    rows = prob.rows(a)
+                ) -> tuple[Columns, np.ndarray, np.ndarray, int, float]:
+    """``(span design's columns, its criterion rows, linear coefficients, their rank, input
+    balance point)`` at ``p`` (the balance point ``u_ref`` unless an integrating
+    structure's is estimated)."""
+    a = prob.columns(p)
+    rows = prob.reduce(a)
     c, rank = solve(rows, prob.y)
     u0 = u_ref
     if prob.balance and float(c[0]) != 0:
@@ -331,9 +331,10 @@ def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
     state, input balance) projected out by ``P``; central differences in z."""
     def prof(z):
         q = {**p, **space.from_z(z)}
-        x, nuis = prob.columns(q)
-        qb = project_out(prob.rows(nuis))
-        xr = prob.rows(x)
+        cols = prob.columns(q)
+        qb = project_out(prob.nuisance_rows(cols))
+        xr = prob.rows(cols.forced[0])
+        del cols
         r = prob.y - K * xr
         return r - qb @ (qb.T @ r), xr, qb
 

@@ -5,12 +5,14 @@ forgotten once settled, not all held at once."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy import signal
 from scipy.stats import rankdata
 
-from pipeline import basis, consistency, ranks, simulation, superposition
+from pipeline import basis, consistency, problem, ranks, simulation, superposition
 from pipeline.models import STRUCTURES, ProcessModel
 from pipeline.report import drawing
 from pipeline.segmentation import SegmentOptions, segment
@@ -134,3 +136,51 @@ def test_step_gain_columns_are_made_when_needed_and_dropped_when_settled(monkeyp
     assert max(held) <= moving + to_end < len(events)
     # each column made once for the system and once for the residuals
     assert max(np.bincount(made)) <= 2
+
+
+@pytest.mark.parametrize("structure, state", [
+    ("first_order", "rest"), ("two_lags", "estimated"), ("integrator_lag", "estimated"),
+    ("integrator_lag", "steady"), ("lead_lag", "rest")])
+def test_a_refinement_design_kept_as_columns_is_the_stacked_one(structure, state,
+                                                               monkeypatch):
+    """A refinement over a long span keeps its design as columns (issue 14 item 6):
+    reduced to criterion rows a column at a time they are the stacked design's rows to
+    the bit; multiplied out a chunk of samples at a time, its product. The span's times
+    and input are the caller's arrays, and the time since the span start is made only
+    for the columns that need it."""
+    rng = np.random.default_rng(12)
+    n, dt, u_ref = 12_000, 0.1, 4.0
+    t = 100.0 + np.arange(n) * dt
+    u = u_ref + np.repeat(rng.normal(0.0, 1.0, 24), n // 24)
+    y = rng.normal(size=n)
+    mask = np.ones(n, bool)
+    mask[3000:4500] = mask[9000:9100] = False  # gaps: rows never straddle them
+    spec = STRUCTURES[structure]
+    p = {"T": 3.0, "T1": 4.0, "T2": 1.5, "delay": 0.35, "Tz": 1.2}
+    p = {k: v for k, v in p.items() if k in spec.params}
+    for max_rows, linear in ((600, ()), (n, ()), (600, ("Tz",) if "Tz" in p else ())):
+        prob = problem.Problem.of(t, u, y, structure, u_ref=u_ref, mask=mask,
+                                  initial_state=state, free_lags=3, max_rows=max_rows)
+        prob = dataclasses.replace(prob, linear=linear)
+        assert prob.t is t and prob.u is u  # not copied
+        cols = prob.columns(p)
+        assert ("t_rel" in prob.__dict__) == (state != "rest")
+        # the stacked design as refine built it before: the forced response from the
+        # input's deviation, the offset, the nuisance columns
+        t_rel, q = t - t[0], {**p, **dict.fromkeys(linear, 0.0)}
+        x0 = basis.forced_response(structure, q, t_rel, u - u_ref, prob.dt)
+        xs = [basis.forced_response(structure, {**q, n_: 1.0}, t_rel, u - u_ref, prob.dt)
+              - x0 for n_ in linear]
+        nuis = [np.ones(n)]
+        if spec.integrating and state != "rest":
+            nuis.append(basis.offset_response(structure, q, t_rel) if state == "estimated"
+                        else t_rel)
+        if state == "estimated":
+            nuis.extend(basis.free_basis(structure, q, t_rel, prob.horizon).T)
+        stacked = np.column_stack([x0, *xs, *nuis])
+        assert prob.reduce(cols).tobytes() == prob.rows(stacked).tobytes()
+        c = rng.normal(size=stacked.shape[1])
+        whole = (stacked @ c)[mask]
+        for chunk in (1000, 4096, n):
+            got = cols.product(c, mask, chunk=chunk)
+            np.testing.assert_allclose(got, whole, rtol=1e-15, atol=1e-15 * np.abs(whole).max())
