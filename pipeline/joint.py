@@ -225,7 +225,8 @@ def _stepped_folds(record: Record, events: Sequence[Event], ident: Sequence[int]
     s = span(events, ident, states)
     sl = slice(s.start, s.stop)
     state = structure_state(joint.structure, s.state, events[ident[0]])
-    masks = [span(events, ident, states, exclude=held).mask for held in held_out]
+    masks = (span(events, ident, states, exclude=held).mask for held in held_out)  # one
+    # span-long mask at a time (left_out_fits keeps each fold's rows only)
     return left_out_fits(record.t[sl], record.u[sl], record.y[sl], joint.structure,
                          u_ref=s.u_ref, masks=masks, initial_state=state,
                          params=joint.params, free_lags=opt.free_lags,

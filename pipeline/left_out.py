@@ -30,7 +30,7 @@ parameters), where an exact refit of each fold took about a hundred.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import replace
 
 import numpy as np
@@ -61,7 +61,7 @@ NULL = 1e-6
 DIFF_STEP, DELAY_STEP = 1e-5, 1e-3
 
 
-def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Sequence[np.ndarray],
+def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Iterable[np.ndarray],
                   initial_state: str, params: Mapping[str, float], free_lags: int = 3,
                   max_rows: int = 600) -> list[tuple[dict[str, float], float] | None]:
     """For each of ``masks`` (the criterion samples of the span ``t, u, y``), the model
@@ -69,7 +69,9 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Sequence[np.n
     all the samples, with the same span, ``u_ref`` and ``initial_state`` as
     :func:`pipeline.refine.refine`): ``(parameters, input balance point)``, or None where
     the steps did not converge (refit that fold exactly). Integer parameters (an order)
-    are held at their values in ``params``. Pure: numpy arrays in."""
+    are held at their values in ``params``. Pure: numpy arrays in. ``masks`` is iterated
+    once, and a fold keeps its criterion's rows, not its mask: a generator of them holds
+    one span-long mask at a time."""
     spec = STRUCTURES[structure]
     held = {n: float(params[n]) for n in spec.params if n in INTEGER_PARAMS}
     base = Problem.of(t, u, y, structure, u_ref=u_ref, mask=np.ones(np.size(t), bool),
@@ -79,7 +81,7 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Sequence[np.n
     dt = base.dt or float(np.median(np.diff(t)))
     space = search_space(structure, [n for n in names if n not in base.linear], dt,
                          base.horizon)
-    folds = [base.with_mask(m, y, max_rows) for m in masks]
+    folds = [base.with_mask(m, y, max_rows, keep_mask=False) for m in masks]
     z0 = space.to_z(params)
     # the first step's Jacobian: the span's columns at z0 and its neighbours, once
     points = _neighbours(space, z0, dt)
@@ -89,6 +91,7 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Sequence[np.n
         for k, f in enumerate(folds):
             r = None if designs[k] is None else _guarded(_residual, f, f.reduce(d))
             designs[k] = None if r is None else [*designs[k], r]
+        del d  # span-long: not alive while the next point's are simulated
     out = []
     for f, r in zip(folds, designs, strict=True):
         z = None if r is None else _guarded(_steps, f, space, held, z0, r, dt)

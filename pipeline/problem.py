@@ -62,7 +62,7 @@ class Problem:
     u: np.ndarray  # the span's input, as given (not copied)
     u_ref: float  # the input level the model starts at rest at
     y: np.ndarray  # measured output at the criterion rows
-    mask: np.ndarray  # fit samples of the span
+    mask: np.ndarray | None  # fit samples of the span (None: not kept, see with_mask)
     starts: np.ndarray  # first fit sample (index into the masked samples) of each row
     counts: np.ndarray  # fit samples per row
     dt: float | None
@@ -86,16 +86,20 @@ class Problem:
                    float(t[-1] - t[0]), initial_state, free_lags)
         return base.with_mask(mask, y, max_rows)
 
-    def with_mask(self, mask: np.ndarray, y: np.ndarray, max_rows: int) -> Problem:
+    def with_mask(self, mask: np.ndarray, y: np.ndarray, max_rows: int,
+                  keep_mask: bool = True) -> Problem:
         """The same span and model with the criterion over ``mask``'s samples of the span
         output ``y`` (the span's arrays shared, not copied: one problem per
-        cross-validation fold costs its rows only)."""
+        cross-validation fold costs its rows only). Without ``keep_mask`` the mask is
+        not kept where the rows are blocks (they are summed by their boundaries): a
+        problem that only evaluates its criterion needs no span-long mask of its own."""
         mask = np.asarray(mask, bool)
         starts, counts = blocks(mask, max_rows)
         bounds, keep = ((None, None) if starts.size == np.count_nonzero(mask)
                         else block_bounds(mask, starts))
-        prob = replace(self, mask=mask, starts=starts, counts=counts, full=bool(mask.all()),
-                       bounds=bounds, keep=keep)
+        prob = replace(self, mask=mask if keep_mask or bounds is None else None,
+                       starts=starts, counts=counts, full=bool(mask.all()), bounds=bounds,
+                       keep=keep)
         return replace(prob, y=prob.rows(np.asarray(y, np.float64)))
 
     @cached_property

@@ -33,6 +33,7 @@ anything with its ``record``, ``events``, ``fits``, ``validation_events`` and
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -45,7 +46,7 @@ from .heap import CHUNK
 from .joint import fold_models, held_out_events
 from .results import Recommendation
 from .uncertainty import variance_factor
-from .validate import balance_point, heldout_residuals
+from .validate import balance_point, heldout_residuals, run_errors, validation_simulation
 
 #: Standard errors within which a simpler structure counts as good as the best (95 %).
 Z_STRUCTURE = 1.96
@@ -117,11 +118,16 @@ def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
     if result.validation_events:
         return heldout_residuals(fit.model, rec, events, result.validation_events, u0)
     if fit.diagnostics.get("folds"):
-        parts = [heldout_residuals(m, rec, events, held, b)
-                 for held, m, b in fold_models(fit.model.structure, fit.diagnostics["folds"])]
-        idx = np.concatenate([p[0] for p in parts])
-        order = np.argsort(idx, kind="stable")  # interleaved folds: back in time order
-        return idx[order], np.concatenate([p[1] for p in parts])[order]
+        runs = [run for held, m, b in fold_models(fit.model.structure, fit.diagnostics["folds"])
+                for run in validation_simulation(m, rec, events, held, b)]
+        timed = sorted(runs, key=lambda run: run[0].start)  # interleaved folds
+        if all(a[0].stop <= b[0].start for a, b in itertools.pairwise(timed)):
+            del runs  # (each run's simulation is dropped once copied)
+            return run_errors(timed, rec)  # disjoint runs: their errors in time order
+        del timed
+        idx, e = run_errors(runs, rec)  # runs that overlap: the samples sorted stably
+        order = np.argsort(idx, kind="stable")
+        return idx[order], e[order]
     others = held_out_events(result.identification_events, fit.event)
     return heldout_residuals(fit.model, rec, events, others, u0)
 

@@ -217,19 +217,28 @@ def heldout_residuals(model: ProcessModel, record: Record, events: list[Event],
                       ) -> tuple[np.ndarray, np.ndarray]:
     """``(sample indices, measured - simulated)`` over the held-out events, simulated as
     validation (:func:`validation_simulation`)."""
-    sims = validation_simulation(model, record, events, heldout, balance)
+    return run_errors(validation_simulation(model, record, events, heldout, balance), record)
+
+
+def run_errors(sims: list[tuple[slice, np.ndarray]], record: Record
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """``(sample indices, measured - simulated)`` of the simulated runs ``sims``, in their
+    order. Filled run by run, each run's simulation dropped from ``sims`` once copied: no
+    concatenated copies of record-long arrays, and the runs' simulations and the errors
+    are not all alive at once (issue 14 memory)."""
     if not sims:
         return np.empty(0, int), np.empty(0)
     n = sum(s.stop - s.start for s, _ in sims)
-    # filled run by run: no concatenated copies of record-long arrays (issue 14 memory)
     idx = np.empty(n, np.int32 if record.n_samples < 2**31 else np.int64)
     e = np.empty(n)
     k = 0
-    for s, v in sims:
+    for j in range(len(sims)):
+        (s, v), sims[j] = sims[j], None
         m = s.stop - s.start
         idx[k: k + m] = np.arange(s.start, s.stop, dtype=idx.dtype)
         np.subtract(record.y[s], v, out=e[k: k + m])
         k += m
+        del v
     return idx, e
 
 

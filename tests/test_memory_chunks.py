@@ -12,7 +12,18 @@ import pytest
 from scipy import signal
 from scipy.stats import rankdata
 
-from pipeline import basis, consistency, problem, ranks, simulation, superposition
+from pipeline import (
+    basis,
+    consistency,
+    joint,
+    problem,
+    ranks,
+    recommend,
+    simulation,
+    superposition,
+    validate,
+)
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.models import STRUCTURES, ProcessModel
 from pipeline.report import drawing
 from pipeline.segmentation import SegmentOptions, segment
@@ -184,3 +195,37 @@ def test_a_refinement_design_kept_as_columns_is_the_stacked_one(structure, state
         for chunk in (1000, 4096, n):
             got = cols.product(c, mask, chunk=chunk)
             np.testing.assert_allclose(got, whole, rtol=1e-15, atol=1e-15 * np.abs(whole).max())
+
+
+def test_fold_errors_merged_run_by_run_are_the_sorted_concatenation(monkeypatch):
+    """A joint fit's held-out errors (interleaved folds) come back in time order from
+    its folds' simulated runs placed one after another (issue 14 item 6), the same
+    arrays as the folds' errors concatenated and sorted; runs that overlap would be
+    sorted the same way."""
+    truth = ProcessModel("first_order", {"K": 2.0, "T": 3.0, "delay": 0.4})
+    changes = [(20.0 + 25.0 * i, 5.0 + (1.0 if i % 2 == 0 else -1.0)) for i in range(13)]
+    rec = step_record(truth, u0=5.0, changes=changes, t_end=360.0, dt=0.1, y0=1.0,
+                      noise=0.02, seed=3)
+    res = analyse(rec, AnalysisOptions(events="all", methods=("lsq_first_order",),
+                                       consistency=False))
+    fit = next(f for f in res.fits if f.ok and f.events)
+    folds = fit.diagnostics["folds"]
+    assert len(folds) == joint.MAX_FOLDS < len(res.events)  # interleaved folds
+    idx, e = recommend.held_out(fit, res)
+    parts = [validate.heldout_residuals(m, rec, list(res.events), held, b)
+             for held, m, b in joint.fold_models("first_order", folds)]
+    whole = np.concatenate([p[0] for p in parts])
+    order = np.argsort(whole, kind="stable")
+    assert np.array_equal(idx, whole[order]) and np.all(np.diff(idx) > 0)
+    assert e.tobytes() == np.concatenate([p[1] for p in parts])[order].tobytes()
+    assert float(np.mean(e**2)) == pytest.approx(fit.metrics["mse_cross_validation"])
+    # runs that overlap (disjoint events do not make them): sorted stably, as before
+    runs = {0: [(slice(8, 12), np.zeros(4))], 1: [(slice(2, 5), np.ones(3)),
+                                                  (slice(10, 13), np.full(3, 2.0))]}
+    monkeypatch.setattr(recommend, "fold_models", lambda s, f: [([0], None, None),
+                                                                ([1], None, None)])
+    monkeypatch.setattr(recommend, "validation_simulation",
+                        lambda m, r, ev, held, b: list(runs[held[0]]))
+    idx, e = recommend.held_out(fit, res)
+    assert idx.tolist() == [2, 3, 4, 8, 9, 10, 10, 11, 11, 12]
+    np.testing.assert_allclose(rec.y[idx] - e, [1, 1, 1, 0, 0, 0, 2, 0, 2, 2], atol=1e-12)
