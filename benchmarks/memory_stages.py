@@ -1,7 +1,7 @@
 """Where a long log's run peaks in memory: the resident set sampled per stage and per step of
 the analysis, with the Python stack where each step peaked (issue 14 item 6).
 
-    python benchmarks/memory_stages.py LOG.csv [--out DIR] [--events all]
+    python benchmarks/memory_stages.py LOG.csv [--out DIR] [--events all] [--traced]
 
 ``LOG.csv`` is a ``time,u,y`` log, e.g. one that ``benchmarks/scale.py --keep DIR`` wrote.
 The stages of ``pipeline run`` are run in this process as ``benchmarks/scale.py`` runs
@@ -14,6 +14,12 @@ of the main thread when the sampler saw it (to the GIL's switch interval: the st
 is exact, the line within it approximate). ``tracemalloc`` does not see the C
 allocators' retention (glibc's freed heap, polars' jemalloc pages), which is part of
 what the process holds, so the resident set is what is measured.
+
+With ``--traced`` the analysis runs under ``tracemalloc`` instead (several times slower),
+and each step's peak is of the memory Python and numpy hold (the loaded record excluded:
+it is read before tracing starts), and what was held when it was entered: the live
+arrays, without what the C allocators keep of freed memory; the difference to the
+resident set is that retention.
 
 Linux only (``/proc``).
 """
@@ -99,8 +105,13 @@ def main() -> None:
     ap.add_argument("log", type=Path)
     ap.add_argument("--out", type=Path, default=None, help="report folder (a temporary one)")
     ap.add_argument("--events", default="0", help="identification events: all, or 0,2")
+    ap.add_argument("--traced", action="store_true",
+                    help="the analysis' live Python/numpy memory per step (tracemalloc)")
     a = ap.parse_args()
     events = "all" if a.events == "all" else tuple(int(v) for v in a.events.split(","))
+    if a.traced:
+        traced(a.log, events)
+        return
     import importlib
 
     import pipeline
@@ -137,6 +148,67 @@ def main() -> None:
               f"{(peak - base) / raw:.2f}x raw")
         for line in stack:
             print(f"{'':6s}{line}")
+
+
+class Traced:
+    """Each labelled step's ``tracemalloc`` peak (nested steps: every open one shares it)
+    and the traced memory when it was entered (the largest over its calls)."""
+
+    def __init__(self) -> None:
+        self.open: list[str] = []
+        self.peaks: dict[str, int] = {}
+        self.entered: dict[str, int] = {}
+
+    def _mark(self) -> int:
+        import tracemalloc
+
+        current, peak = tracemalloc.get_traced_memory()
+        for label in self.open:
+            self.peaks[label] = max(self.peaks.get(label, 0), peak)
+        tracemalloc.reset_peak()
+        return current
+
+    def wrap(self, module, name: str) -> None:
+        f = getattr(module, name)
+
+        @functools.wraps(f)
+        def labelled(*args, **kwargs):
+            current = self._mark()
+            label = f"{self.open[-1]}/{name}" if self.open else name
+            self.entered[label] = max(self.entered.get(label, 0), current)
+            self.open.append(label)
+            try:
+                return f(*args, **kwargs)
+            finally:
+                self._mark()
+                self.open.pop()
+
+        setattr(module, name, labelled)
+
+
+def traced(log: Path, events) -> None:
+    """The ``--traced`` mode (see the module docstring)."""
+    import importlib
+    import tracemalloc
+
+    import pipeline
+    from pipeline.analysis import AnalysisOptions
+
+    probe = Traced()
+    for module, name in STEPS:
+        probe.wrap(importlib.import_module(module), name)
+    probe.wrap(pipeline, "analyse")
+    rec = pipeline.load(log, input="u", output="y", time="time")
+    raw = 3 * 8 * rec.n_samples
+    tracemalloc.start()
+    pipeline.analyse(rec, AnalysisOptions(events=events))
+    held = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    print(f"{rec.n_samples:,} samples; raw arrays {raw / 1e6:.0f} MB; traced memory "
+          f"beside the record, x raw (held after the analysis: {held / raw:.2f}x)")
+    for label, peak in sorted(probe.peaks.items(), key=lambda kv: -kv[1]):
+        print(f"{label:58s} peak {peak / raw:5.2f}x   entered at "
+              f"{probe.entered.get(label, 0) / raw:5.2f}x")
 
 
 if __name__ == "__main__":

@@ -118,18 +118,45 @@ def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
     if result.validation_events:
         return heldout_residuals(fit.model, rec, events, result.validation_events, u0)
     if fit.diagnostics.get("folds"):
-        runs = [run for held, m, b in fold_models(fit.model.structure, fit.diagnostics["folds"])
-                for run in validation_simulation(m, rec, events, held, b)]
-        timed = sorted(runs, key=lambda run: run[0].start)  # interleaved folds
-        if all(a[0].stop <= b[0].start for a, b in itertools.pairwise(timed)):
-            del runs  # (each run's simulation is dropped once copied)
-            return run_errors(timed, rec)  # disjoint runs: their errors in time order
-        del timed
-        idx, e = run_errors(runs, rec)  # runs that overlap: the samples sorted stably
-        order = np.argsort(idx, kind="stable")
-        return idx[order], e[order]
+        return in_time_order([_fold_errors(m, rec, events, held, b) for held, m, b in
+                              fold_models(fit.model.structure, fit.diagnostics["folds"])])
     others = held_out_events(result.identification_events, fit.event)
     return heldout_residuals(fit.model, rec, events, others, u0)
+
+
+def _fold_errors(model, record, events, held, balance
+                 ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
+    """A fold's held-out ``(sample indices, errors)`` and the ``(start, stop)`` samples of
+    each of its runs, in their order (:func:`pipeline.validate.heldout_residuals`)."""
+    sims = validation_simulation(model, record, events, held, balance)
+    runs = [(s.start, s.stop) for s, _ in sims]
+    return (*run_errors(sims, record), runs)
+
+
+def in_time_order(parts: Sequence[tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The folds' errors ``parts`` (:func:`_fold_errors`) as one series in time order:
+    the folds' runs copied one after another in the order they start, where no two runs
+    share a sample (disjoint events); else, as for any overlap, the concatenated samples
+    sorted stably. The same arrays either way, without the argsort of record-long
+    indices and its reordered copies (interleaved folds over a long record)."""
+    runs = sorted((a, b, f, k) for f, (_, _, rs) in enumerate(parts)
+                  for k, (a, b) in enumerate(rs))
+    if any(r[1] > q[0] for r, q in itertools.pairwise(runs)):
+        idx = np.concatenate([p[0] for p in parts])
+        order = np.argsort(idx, kind="stable")
+        return idx[order], np.concatenate([p[1] for p in parts])[order]
+    offsets = [np.cumsum([0] + [b - a for a, b in rs]) for _, _, rs in parts]
+    n = sum(p[0].size for p in parts)
+    idx = np.empty(n, np.result_type(*(p[0] for p in parts)))  # the concatenation's
+    e = np.empty(n)
+    k = 0
+    for a, b, f, j in runs:
+        m, o = b - a, offsets[f][j]
+        idx[k: k + m] = parts[f][0][o: o + m]
+        e[k: k + m] = parts[f][1][o: o + m]
+        k += m
+    return idx, e
 
 
 def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
