@@ -229,3 +229,25 @@ def test_fold_errors_merged_run_by_run_are_the_sorted_concatenation(monkeypatch)
     idx, e = recommend.held_out(fit, res)
     assert idx.tolist() == [2, 3, 4, 8, 9, 10, 10, 11, 11, 12]
     np.testing.assert_allclose(rec.y[idx] - e, [1, 1, 1, 0, 0, 0, 2, 0, 2, 2], atol=1e-12)
+
+
+def test_a_fold_without_its_mask_has_the_same_rows():
+    """A cross-validation fold keeps its criterion rows, not a span-long mask
+    (``keep_mask=False``): where the rows are blocks its rows of any column are the
+    masked problem's; where every fit sample is a row the mask is needed and kept."""
+    rng = np.random.default_rng(2)
+    n = 5000
+    t = np.arange(n) * 0.5
+    u, y = rng.normal(size=n), rng.normal(size=n)
+    mask = rng.uniform(size=n) < 0.7
+    base = problem.Problem.of(t, u, y, "first_order", u_ref=0.0, mask=np.ones(n, bool),
+                              initial_state="rest", free_lags=3, max_rows=600)
+    x = rng.normal(size=n)
+    for max_rows in (600, n):
+        kept = base.with_mask(mask, y, max_rows)
+        fold = base.with_mask(mask, y, max_rows, keep_mask=False)
+        assert (fold.mask is None) == (max_rows < n)
+        assert fold.rows(x).tobytes() == kept.rows(x).tobytes()
+        assert fold.y.tobytes() == kept.y.tobytes()
+        p = {"T": 4.0, "delay": 1.0}
+        assert fold.design_rows(p).tobytes() == kept.design_rows(p).tobytes()
