@@ -83,18 +83,28 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Iterable[np.n
                          base.horizon)
     folds = [base.with_mask(m, y, max_rows, keep_mask=False) for m in masks]
     z0 = space.to_z(params)
-    # the first step's Jacobian: the span's columns at z0 and its neighbours, once
+    # the first step's Jacobian: the span's columns at z0 and its neighbours, once; each
+    # fold keeps its residual at z0 and, once a pair of neighbours is done, their
+    # difference column (:func:`_jacobian`'s), not every neighbour's residual
     points = _neighbours(space, z0, dt)
-    designs: list[list[np.ndarray] | None] = [[] for _ in folds]
-    for z in points:
+    kept: list[list[np.ndarray] | None] = [[] for _ in folds]
+    for j, z in enumerate(points):
         d = base.columns({**held, **space.from_z(z)})
         for k, f in enumerate(folds):
-            r = None if designs[k] is None else _guarded(_residual, f, f.reduce(d))
-            designs[k] = None if r is None else [*designs[k], r]
+            r = None if kept[k] is None else _guarded(_residual, f, f.reduce(d))
+            if r is None:
+                kept[k] = None
+            elif j and j % 2 == 0:  # the pair (z0 +- h e_i) of coordinate i = j/2 - 1
+                i = j // 2 - 1
+                up = kept[k].pop()
+                kept[k].append((up - r) / max(points[j - 1][i] - z[i], 1e-300))
+            else:
+                kept[k].append(r)
         del d  # span-long: not alive while the next point's are simulated
     out = []
-    for f, r in zip(folds, designs, strict=True):
-        z = None if r is None else _guarded(_steps, f, space, held, z0, r, dt)
+    for f, r in zip(folds, kept, strict=True):
+        z = None if r is None else _guarded(_steps, f, space, held, z0, r[0],
+                                            _stack(r[1:], r[0].size), dt)
         out.append(None if z is None else _guarded(_model, f, space, held, z, u_ref))
     return out
 
@@ -136,13 +146,18 @@ def _jacobian(points: list[np.ndarray], r: list[np.ndarray]) -> np.ndarray:
     for i in range(len(points) // 2):
         up, dn = points[1 + 2 * i], points[2 + 2 * i]
         cols.append((r[1 + 2 * i] - r[2 + 2 * i]) / max(up[i] - dn[i], 1e-300))
-    return np.column_stack(cols) if cols else np.zeros((r[0].size, 0))
+    return _stack(cols, r[0].size)
 
 
-def _steps(f: Problem, space: Space, held, z0: np.ndarray, r0: list[np.ndarray],
-           dt: float) -> np.ndarray | None:
-    """Gauss-Newton steps on fold ``f`` from ``z0`` (``r0``: the residuals at
-    :func:`_neighbours`), None if they do not converge (see the module). They stop, as
+def _stack(cols: list[np.ndarray], rows: int) -> np.ndarray:
+    """The Jacobian of the difference columns ``cols`` (``rows`` x 0 without any)."""
+    return np.column_stack(cols) if cols else np.zeros((rows, 0))
+
+
+def _steps(f: Problem, space: Space, held, z0: np.ndarray, r0: np.ndarray,
+           jac0: np.ndarray, dt: float) -> np.ndarray | None:
+    """Gauss-Newton steps on fold ``f`` from ``z0`` (``r0``, ``jac0``: the residual and
+    its Jacobian there), None if they do not converge (see the module). They stop, as
     the least-squares search does (:data:`pipeline.search.FTOL`), when the cost the
     linearised problem could still gain, or a step gained, is below ``FTOL`` of it (a
     small step is not enough: with coloured noise the steps shrink slowly); a step that
@@ -150,14 +165,13 @@ def _steps(f: Problem, space: Space, held, z0: np.ndarray, r0: list[np.ndarray],
     not gain, the last of which moved the cost by less than ``FTOL`` of it, the point is
     as converged as the search would leave it (its trust region shrinks the same way,
     ``scipy.optimize.least_squares``' xtol)."""
-    z, r = z0, r0
+    z, r0, jac = z0, r0, jac0
     for it in range(MAX_STEPS):
-        jac = _jacobian(_neighbours(space, z, dt), r)
-        step = _bounded_step(space, z, jac, r[0])
+        step = _bounded_step(space, z, jac, r0)
         if step is None:
             return None
-        cost = float(r[0] @ r[0])
-        lin = r[0] + jac @ step
+        cost = float(r0 @ r0)
+        lin = r0 + jac @ step
         if not step.any() or cost - float(lin @ lin) <= FTOL * cost:
             return z
         for _ in range(MAX_HALVINGS):
@@ -176,6 +190,8 @@ def _steps(f: Problem, space: Space, held, z0: np.ndarray, r0: list[np.ndarray],
         z = z_new
         r = [r_new] + [_residual(f, f.design_rows({**held, **space.from_z(p)}))
                        for p in _neighbours(space, z, dt)[1:]]
+        r0, jac = r_new, _jacobian(_neighbours(space, z, dt), r)
+        del r
     return None
 
 
