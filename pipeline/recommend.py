@@ -171,11 +171,12 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
     if crit == "aic":
         return _by_aic(fits, aic_margin)
     cands = [Candidate(f, float(f.metrics[crit])) for f in fits]
-    lowest = loaded(min(cands, key=lambda c: c.error), result)
-    noise = measurement_noise(result, lowest.idx)
+    lowest = min(cands, key=lambda c: c.error)
+    noise = measurement_noise(result, loaded(lowest, result).idx)  # its errors are made
+    # again where they are needed (below): only two candidates' record-long errors are
+    # alive at once, the best's and the one compared with it
     reps = [_representative(group, noise, level, result) for group in _by_structure(cands)]
-    best = min(reps, key=lambda c: (c.error, complexity(c.fit)))
-    best = lowest if best.fit is lowest.fit else loaded(best, result)
+    best = loaded(min(reps, key=lambda c: (c.error, complexity(c.fit))), result)
     tied = []
     for c in reps:
         if c.fit is best.fit:
@@ -192,7 +193,7 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
         return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
                                len(cands), f"difference {diff:.3g} +- {se:.2g}, within "
                                f"{Z_STRUCTURE:g} standard errors")
-    diff, se = paired_difference(loaded(chosen, result), lowest, noise)
+    diff, se = paired_difference(loaded(chosen, result), loaded(lowest, result), noise)
     reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method} read "
               f"{lowest.error:.4g} off the response of the same structure, within the "
               f"uncertainty (difference {diff:.3g} +- {se:.2g}), and the refinement is "
