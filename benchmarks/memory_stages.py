@@ -35,6 +35,7 @@ import threading
 import time
 import traceback
 from pathlib import Path
+from types import ModuleType
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -84,7 +85,7 @@ class Sampler:
         self._stop = True
         self._thread.join()
 
-    def wrap(self, module, name: str) -> None:
+    def wrap(self, module: ModuleType, name: str) -> None:
         """Label the calls of ``module.name`` (nested under the current label)."""
         f = getattr(module, name)
 
@@ -168,7 +169,7 @@ class Traced:
         tracemalloc.reset_peak()
         return current
 
-    def wrap(self, module, name: str) -> None:
+    def wrap(self, module: ModuleType, name: str) -> None:
         f = getattr(module, name)
 
         @functools.wraps(f)

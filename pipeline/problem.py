@@ -6,7 +6,7 @@ state, an integrating structure's input balance).
 A span can be a whole long record, so nothing span-long is copied that need not be: the
 span's times and input are the caller's arrays (the input's deviation from ``u_ref`` is
 taken a chunk at a time in the simulation, :func:`pipeline.basis.forced_response`), the
-time since the span start is made only for the columns that need it, and the design is
+time since the span start is made only for a fit whose columns need it, and the design is
 kept as its columns (:class:`Columns`), reduced to criterion rows one at a time and
 multiplied out a chunk of samples at a time, never stacked into one span-long matrix."""
 
@@ -27,10 +27,11 @@ from .models import STRUCTURES
 @dataclass(frozen=True)
 class Columns:
     """The span columns of a linear solve, in the order of its coefficients: ``forced``
-    (the forced response; with linear parameters it at 0 and its change per unit of each),
+    (the forced response),
     the offset (all ones: not stored, its rows are :attr:`Problem.offset_rows`), then
     ``nuisance`` (an integrating structure's input balance, the free response of an
-    estimated state)."""
+    estimated state). With linear parameters ``forced`` holds the forced response at
+    them all 0, then its change per unit of each."""
 
     forced: list[np.ndarray]
     nuisance: list[np.ndarray]
@@ -38,16 +39,22 @@ class Columns:
     def product(self, c: np.ndarray, mask: np.ndarray | None = None,
                 chunk: int = CHUNK) -> np.ndarray:
         """``design @ c`` at the samples of ``mask`` (all: None), the design's rows
-        stacked :data:`pipeline.heap.CHUNK` samples at a time (each sample's product is
-        the one of the whole stacked design: the same row by the same coefficients)."""
+        stacked ``chunk`` samples at a time (:data:`pipeline.heap.CHUNK`): each sample's
+        product is the same row by the same coefficients as in the whole stacked
+        design's. A chunk is never one row (numpy takes a dot product there, not the
+        matrix-vector product, and rounds differently): a last single row joins the
+        chunk before it."""
         n = self.forced[0].size
         out = []
-        for s in range(0, n, chunk):
+        s = 0
+        while s < n:
             e = min(s + chunk, n)
+            e = n if n - e == 1 else e
             a = np.column_stack([*(x[s:e] for x in self.forced), np.ones(e - s),
                                  *(x[s:e] for x in self.nuisance)])
             v = a @ c
             out.append(v if mask is None else v[mask[s:e]])
+            s = e
         return out[0] if len(out) == 1 else np.concatenate(out)
 
 
@@ -59,6 +66,7 @@ class Problem:
 
     structure: str
     t: np.ndarray  # the span's times, as given (not copied)
+    t_rel: np.ndarray | None  # time since the span start, where a column needs it
     u: np.ndarray  # the span's input, as given (not copied)
     u_ref: float  # the input level the model starts at rest at
     y: np.ndarray  # measured output at the criterion rows
@@ -81,8 +89,13 @@ class Problem:
         starting at the first sample) on the samples of ``mask``, in at most ``max_rows``
         criterion rows."""
         t = np.asarray(t, np.float64)
-        base = cls(structure, t, np.asarray(u, np.float64), float(u_ref), np.empty(0),
-                   np.ones(t.size, bool), np.zeros(0, int), np.zeros(0), basis.uniform_step(t),
+        dt = basis.uniform_step(t)
+        # the time since the span start is made once, for the problem and the copies it
+        # shares its arrays with (folds), and only where a column needs it: the free
+        # response and the input balance (a state not at rest), an irregular grid
+        t_rel = t - t[0] if initial_state != "rest" or dt is None else None
+        base = cls(structure, t, t_rel, np.asarray(u, np.float64), float(u_ref), np.empty(0),
+                   np.ones(t.size, bool), np.zeros(0, int), np.zeros(0), dt,
                    float(t[-1] - t[0]), initial_state, free_lags)
         return base.with_mask(mask, y, max_rows)
 
@@ -101,12 +114,6 @@ class Problem:
                        starts=starts, counts=counts, full=bool(mask.all()), bounds=bounds,
                        keep=keep)
         return replace(prob, y=prob.rows(np.asarray(y, np.float64)))
-
-    @cached_property
-    def t_rel(self) -> np.ndarray:
-        """Time since the span start: made when a column needs it (the free response,
-        the input balance, an irregular grid's simulation), not for a fit at rest."""
-        return self.t - self.t[0]
 
     @property
     def estimate_state(self) -> bool:

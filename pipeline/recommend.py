@@ -41,9 +41,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from .events import Event
 from .fit import Fit
 from .heap import CHUNK
 from .joint import fold_models, held_out_events
+from .models import ProcessModel
+from .record import Record
 from .results import Recommendation
 from .uncertainty import variance_factor
 from .validate import balance_point, heldout_residuals, run_errors, validation_simulation
@@ -124,7 +127,8 @@ def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
     return heldout_residuals(fit.model, rec, events, others, u0)
 
 
-def _fold_errors(model, record, events, held, balance
+def _fold_errors(model: ProcessModel, record: Record, events: list[Event], held: list[int],
+                 balance: float | None
                  ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
     """A fold's held-out ``(sample indices, errors)`` and the ``(start, stop)`` samples of
     each of its runs, in their order (:func:`pipeline.validate.heldout_residuals`)."""
@@ -172,9 +176,11 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
         return _by_aic(fits, aic_margin)
     cands = [Candidate(f, float(f.metrics[crit])) for f in fits]
     lowest = min(cands, key=lambda c: c.error)
-    noise = measurement_noise(result, loaded(lowest, result).idx)  # its errors are made
-    # again where they are needed (below): only two candidates' record-long errors are
-    # alive at once, the best's and the one compared with it
+    noise = measurement_noise(result, loaded(lowest, result).idx)
+    # the lowest's errors are made again where they are needed (below): only two
+    # candidates' record-long errors are alive at once, the best's and the one compared
+    # with it, not three; at the cost of simulating its held-out data once or twice more
+    # (a joint fit's folds: a second or two at 10 M samples, against minutes of fits)
     reps = [_representative(group, noise, level, result) for group in _by_structure(cands)]
     best = loaded(min(reps, key=lambda c: (c.error, complexity(c.fit))), result)
     tied = []

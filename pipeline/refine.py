@@ -265,7 +265,8 @@ def _integer(prob: Problem, space: Space, fixed, p_best, ints, dt, span, opt,
     return replace(best, nfev=nfev)
 
 
-def _finish(prob: Problem, space: Space, p, y, initial_state, u_ref, opt, nfev, runs
+def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
+            initial_state: str, u_ref: float, opt: RefineOptions, nfev: int, runs: int
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p`` (``y``: the
     span's output). Of the span-long arrays only the fitted output is alive while the
@@ -274,7 +275,7 @@ def _finish(prob: Problem, space: Space, p, y, initial_state, u_ref, opt, nfev, 
     cols, rows, c, rank, u0 = _linear_fit(prob, p, u_ref)
     rows_resid = prob.y - rows @ c
     fitted = cols.product(c, None if prob.full else prob.mask)
-    del cols, rows  # (the rows are a column itself where every sample is a row)
+    del cols, rows
     K, y0 = float(c[0]), float(c[1])
     free = list(space.names)
     jac = _profiled_jacobian(prob, space, p, K)
@@ -328,7 +329,11 @@ def _model(structure: str, p, K: float, ci, std) -> tuple[ProcessModel, dict, di
 
 def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
     """Jacobian of ``P(theta) (y - K x(theta))`` wrt (z, K), the nuisance columns (offset,
-    state, input balance) projected out by ``P``; central differences in z."""
+    state, input balance) projected out by ``P``; central differences in z. ``prob`` is
+    the fit's problem, not its search's: no parameter is solved linearly in it (its
+    forced column is the response at ``p``, not at the linear ones' zero)."""
+    assert not prob.linear, "the profiled Jacobian of a problem with linear parameters"
+
     def prof(z):
         q = {**p, **space.from_z(z)}
         cols = prob.columns(q)

@@ -220,12 +220,13 @@ def heldout_residuals(model: ProcessModel, record: Record, events: list[Event],
     return run_errors(validation_simulation(model, record, events, heldout, balance), record)
 
 
-def run_errors(sims: list[tuple[slice, np.ndarray]], record: Record
+def run_errors(sims: list[tuple[slice, np.ndarray] | None], record: Record
                ) -> tuple[np.ndarray, np.ndarray]:
     """``(sample indices, measured - simulated)`` of the simulated runs ``sims``, in their
-    order. Filled run by run, each run's simulation dropped from ``sims`` once copied: no
-    concatenated copies of record-long arrays, and the runs' simulations and the errors
-    are not all alive at once (issue 14 memory)."""
+    order, filled run by run: no concatenated copies of record-long arrays (issue 14
+    memory). Empties ``sims`` as it goes (each entry set to None once copied), so a
+    simulation is freed once its last run is copied (the runs of one simulated stretch
+    are views of it), not kept beside all the errors."""
     if not sims:
         return np.empty(0, int), np.empty(0)
     n = sum(s.stop - s.start for s, _ in sims)
