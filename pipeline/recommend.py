@@ -137,29 +137,37 @@ def _fold_errors(model: ProcessModel, record: Record, events: list[Event], held:
     return (*run_errors(sims, record), runs)
 
 
-def in_time_order(parts: Sequence[tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]]
+def in_time_order(parts: list[tuple[np.ndarray, np.ndarray, list[tuple[int, int]]] | None]
                   ) -> tuple[np.ndarray, np.ndarray]:
     """The folds' errors ``parts`` (:func:`_fold_errors`) as one series in time order:
     the folds' runs copied one after another in the order they start, where no two runs
     share a sample (disjoint events); else, as for any overlap, the concatenated samples
     sorted stably. The same arrays either way, without the argsort of record-long
-    indices and its reordered copies (interleaved folds over a long record)."""
+    indices and its reordered copies (interleaved folds over a long record). Empties
+    ``parts`` as it goes (a fold set to None once its runs are copied)."""
     runs = sorted((a, b, f, k) for f, (_, _, rs) in enumerate(parts)
                   for k, (a, b) in enumerate(rs))
     if any(r[1] > q[0] for r, q in itertools.pairwise(runs)):
         idx = np.concatenate([p[0] for p in parts])
         order = np.argsort(idx, kind="stable")
         return idx[order], np.concatenate([p[1] for p in parts])[order]
-    offsets = [np.cumsum([0] + [b - a for a, b in rs]) for _, _, rs in parts]
     n = sum(p[0].size for p in parts)
     idx = np.empty(n, np.result_type(*(p[0] for p in parts)))  # the concatenation's
     e = np.empty(n)
-    k = 0
-    for a, b, f, j in runs:
-        m, o = b - a, offsets[f][j]
-        idx[k: k + m] = parts[f][0][o: o + m]
-        e[k: k + m] = parts[f][1][o: o + m]
-        k += m
+    # where each run goes (the runs in time order, one after another), then fold by fold,
+    # each fold's arrays dropped once its runs are copied: the output's pages are touched
+    # as the folds' are freed, so the two are not both resident
+    dest = np.cumsum([0] + [b - a for a, b, _, _ in runs])
+    moves: list[list[tuple[int, int, int]]] = [[] for _ in parts]
+    for (a, b, f, j), k in zip(runs, dest[:-1], strict=True):
+        moves[f].append((j, int(k), b - a))
+    for f, fold in enumerate(moves):
+        starts = np.cumsum([0] + [b - a for a, b in parts[f][2]])
+        for j, k, m in fold:
+            o = starts[j]
+            idx[k: k + m] = parts[f][0][o: o + m]
+            e[k: k + m] = parts[f][1][o: o + m]
+        parts[f] = None
     return idx, e
 
 
