@@ -171,7 +171,10 @@ class Problem:
             return Columns([self.forced(p)], self.nuisance(p))
         base = {**p, **dict.fromkeys(self.linear, 0.0)}
         x0 = self.forced(base)
-        xs = [self.forced({**base, n: 1.0}) - x0 for n in self.linear]
+        xs = []
+        for n in self.linear:  # the change per unit, made in the response's own array
+            x = self.forced({**base, n: 1.0})
+            xs.append(np.subtract(x, x0, out=x))
         return Columns([x0, *xs], self.nuisance(base))
 
     def nuisance(self, p: Mapping[str, float]) -> list[np.ndarray]:
