@@ -326,8 +326,9 @@ def _wide_ci(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     if not wide:
         return None
     k = max(wide, key=wide.get)
-    return Flag("wide_ci", f"The 95 % interval of {k} is ±{wide[k]:.0%} of its value: the "
-                "data do not determine it.", {"parameter": k, "relative_half_width": wide[k]})
+    size = f"{wide[k]:.0%} of its value" if wide[k] < 10 else f"{wide[k]:.2g} times its value"
+    return Flag("wide_ci", f"The 95 % interval of {k} is ±{size}: the data do not determine "
+                "it.", {"parameter": k, "relative_half_width": wide[k]})
 
 
 def _overshoot_in_noise(fit: Fit, ev: Event, rec: Record) -> Flag | None:

@@ -181,3 +181,19 @@ def test_spearman_is_scipys_with_ties_and_nan_when_constant():
     assert spearman(x, x + y) == pytest.approx(spearmanr(x, x + y).statistic, abs=1e-12)
     assert list(average_ranks(np.array([3.0, 1.0, 3.0, 2.0]))) == [3.5, 1.0, 3.5, 2.0]
     assert math.isnan(spearman(np.ones(10), np.arange(10.0)))
+
+
+def test_a_wide_interval_reads_as_a_number_a_person_can_read():
+    """An interval many orders wider than its value (a lag the data do not determine:
+    seen on the tank pulse log) is said in times its value, not in a 300-digit
+    percentage; up to 1000 % in percent."""
+    from dataclasses import replace
+
+    base = _graded(ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0}))
+    from pipeline.grade import _wide_ci
+
+    for half, text in ((1e302, "±1e+302 times its value"), (3.0, "±300% of its value"),
+                       (25.0, "±25 times its value")):
+        fit = replace(base, ci95={"T": (10.0 - half * 10.0, 10.0 + half * 10.0)})
+        flag = _wide_ci(fit, None, None)
+        assert text in flag.message and len(flag.message) < 120, flag.message
