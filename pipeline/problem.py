@@ -27,8 +27,8 @@ from .models import STRUCTURES
 @dataclass(frozen=True)
 class Columns:
     """The span columns of a linear solve, in the order of its coefficients: ``forced``
-    (the forced response),
-    the offset (all ones: not stored, its rows are :attr:`Problem.offset_rows`), then
+    (the forced response), the offset (all ones: not stored, its rows are
+    :attr:`Problem.offset_rows`), then
     ``nuisance`` (an integrating structure's input balance, the free response of an
     estimated state). With linear parameters ``forced`` holds the forced response at
     them all 0, then its change per unit of each."""
@@ -55,7 +55,7 @@ class Columns:
             v = a @ c
             out.append(v if mask is None else v[mask[s:e]])
             s = e
-        return out[0] if len(out) == 1 else np.concatenate(out)
+        return out[0] if len(out) == 1 else np.concatenate(out) if out else np.empty(0)
 
 
 @dataclass(frozen=True)
