@@ -326,7 +326,9 @@ def _wide_ci(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     if not wide:
         return None
     k = max(wide, key=wide.get)
-    size = f"{wide[k]:.0%} of its value" if wide[k] < 10 else f"{wide[k]:.2g} times its value"
+    w = wide[k]
+    size = (f"{w:.0%} of its value" if w < 10 else f"{w:.0f} times its value" if w < 1e6
+            else f"{w:.2g} times its value")
     return Flag("wide_ci", f"The 95 % interval of {k} is ±{size}: the data do not determine "
                 "it.", {"parameter": k, "relative_half_width": wide[k]})
 
