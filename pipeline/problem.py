@@ -28,10 +28,10 @@ from .models import STRUCTURES
 class Columns:
     """The span columns of a linear solve, in the order of its coefficients: ``forced``
     (the forced response), the offset (all ones: not stored, its rows are
-    :attr:`Problem.offset_rows`), then
-    ``nuisance`` (an integrating structure's input balance, the free response of an
-    estimated state). With linear parameters ``forced`` holds the forced response at
-    them all 0, then its change per unit of each."""
+    :attr:`Problem.offset_rows`), then ``nuisance`` (an integrating structure's input
+    balance, the free response of an estimated state). With linear parameters
+    ``forced`` holds the forced response at them all 0, then its change per unit of
+    each."""
 
     forced: list[np.ndarray]
     nuisance: list[np.ndarray]
@@ -55,7 +55,9 @@ class Columns:
             v = a @ c
             out.append(v if mask is None else v[mask[s:e]])
             s = e
-        return out[0] if len(out) == 1 else np.concatenate(out) if out else np.empty(0)
+        if not out:
+            return np.empty(0)
+        return out[0] if len(out) == 1 else np.concatenate(out)
 
 
 @dataclass(frozen=True)
@@ -150,8 +152,8 @@ class Problem:
         """The design rows of the span columns ``cols``, reduced a column at a time (the
         same sums as of the stacked design's rows; the columns do not depend on the mask,
         so problems that differ only in it share them)."""
-        return np.column_stack([*(self.rows(x) for x in cols.forced), self.offset_rows,
-                                *(self.rows(x) for x in cols.nuisance)])
+        return np.column_stack([*(self.rows(x) for x in cols.forced),
+                                self.nuisance_rows(cols)])
 
     def nuisance_rows(self, cols: Columns) -> np.ndarray:
         """The rows of the nuisance columns (the offset, then ``cols.nuisance``)."""

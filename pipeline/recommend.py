@@ -187,8 +187,8 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
     noise = measurement_noise(result, loaded(lowest, result).idx)
     # the lowest's errors are made again where they are needed (below): only two
     # candidates' record-long errors are alive at once, the best's and the one compared
-    # with it, not three; at the cost of simulating its held-out data once or twice more
-    # (a joint fit's folds: a second or two at 10 M samples, against minutes of fits)
+    # with it, not three; at the cost of simulating its held-out events once or twice
+    # more (for a joint fit, its folds' models over their events)
     reps = [_representative(group, noise, level, result) for group in _by_structure(cands)]
     best = loaded(min(reps, key=lambda c: (c.error, complexity(c.fit))), result)
     tied = []

@@ -239,7 +239,6 @@ def run_errors(sims: list[tuple[slice, np.ndarray] | None], record: Record
         idx[k: k + m] = np.arange(s.start, s.stop, dtype=idx.dtype)
         np.subtract(record.y[s], v, out=e[k: k + m])
         k += m
-        del v
     return idx, e
 
 
