@@ -37,7 +37,7 @@ from .record import Record
 from .refine import Refinement, RefineOptions, refine, refine_model
 from .refine_record import carry_source, mismatch, result_parts, structure_state
 from .search import candidate_starts
-from .validate import fit_start, heldout_residuals
+from .validate import fit_start, heldout_residuals, validation_runs
 
 
 @dataclass(frozen=True)
@@ -196,8 +196,12 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
         # decimated search has a few samples per event: n_lags' folds lost the order
         # there; and every template scored on the whole span is a simulation of it)
         options = replace(options or RefineOptions(), coarse=False)
-    folds, errors = [], []
-    for held, step in zip(held_out, approx, strict=True):
+    # the pooled squared errors in one buffer, each fold's written as it is scored (the
+    # folds' errors, their concatenation and its square were each as long as the span)
+    sizes = [sum(b - a for a, b, _ in validation_runs(list(events), held)) for held in held_out]
+    squares, at = np.empty(sum(sizes)), 0
+    folds = []
+    for held, step, size in zip(held_out, approx, sizes, strict=True):
         if step is None:  # the steps did not converge: the exact refit
             model, u0 = _refit_model(record, events, ident, joint.structure,
                                      models=[joint], states=states, exclude=held,
@@ -207,12 +211,13 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
             model, u0 = ProcessModel(joint.structure, step[0]), step[1]
         u0 = u0 if model.integrating else None
         _, e = heldout_residuals(model, record, list(events), held, u0)
-        errors.append(e)
+        np.square(e, out=squares[at: at + size])
+        at += size
         folds.append({"events": held, "params": dict(model.params), "u0": u0,
                       "mse": float(np.mean(e**2)) if e.size else math.nan,
                       "refit": "exact" if step is None else "gauss-newton"})
-    pooled = np.concatenate(errors) if errors else np.empty(0)
-    return (float(np.mean(pooled**2)) if pooled.size else math.nan), folds
+        del e
+    return (float(np.mean(squares)) if squares.size else math.nan), folds
 
 
 def _stepped_folds(record: Record, events: Sequence[Event], ident: Sequence[int],
