@@ -128,9 +128,10 @@ def worker_write(path: str, n: str, n_events: str) -> None:
 
 def worker_pipeline(path: str, out: str) -> None:
     import pipeline
-    from pipeline.heap import polars_returns_freed_pages
+    from pipeline.heap import large_arrays_mapped, polars_returns_freed_pages
 
     polars_returns_freed_pages()  # as the command line does, before polars is imported
+    large_arrays_mapped()
     # the loaders are imported on first use: import them before the clock starts
     import pipeline.io.delimited  # noqa: F401
     from pipeline.analysis import AnalysisOptions

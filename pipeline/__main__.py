@@ -1,12 +1,14 @@
 """``python -m pipeline`` and the ``pipeline`` command: the command line, in a process that
 is the command's own, so polars' allocator is set up first (:func:`pipeline.heap.
-polars_returns_freed_pages`, before anything imports polars; pool workers inherit it)."""
+polars_returns_freed_pages`, before anything imports polars; pool workers inherit it), and
+glibc's mmap threshold fixed (:func:`pipeline.heap.large_arrays_mapped`)."""
 
-from .heap import polars_returns_freed_pages
+from .heap import large_arrays_mapped, polars_returns_freed_pages
 
 
 def main() -> None:
     polars_returns_freed_pages()
+    large_arrays_mapped()
     from .cli import app
 
     app(prog_name="pipeline")

@@ -19,6 +19,13 @@ starts (``pipeline.__main__``), before polars is imported (its pool workers inhe
 a program that uses the library calls it first thing, or sets the variable itself.
 ``import pipeline`` does not: it would change the environment of the importing program
 and of every process it starts.
+
+glibc maps an allocation on its own (and unmaps it when freed) only from a threshold up
+that it raises to the size of each mapped block freed, up to 32 MB: after the first
+freed 8 MB chunk of a chunked pass (:data:`CHUNK`), every later one comes from the heap
+and stays resident when freed, under the next stage's record-long arrays.
+:func:`large_arrays_mapped` fixes the threshold at :data:`MMAP_THRESHOLD` for the
+command's process and its pool workers (the same way: the command line calls it first).
 """
 
 from __future__ import annotations
@@ -52,17 +59,44 @@ def polars_returns_freed_pages() -> None:
         os.environ.setdefault("_RJEM_MALLOC_CONF", POLARS_MALLOC_CONF)
 
 
+#: Allocations from this size up are mapped on their own and given back when freed
+#: (glibc's ``M_MMAP_THRESHOLD``, fixed: not raised by the freed blocks). Above the
+#: per-event windows' arrays (5,000 samples: 40 kB) and the search's, below a chunked
+#: pass's 8 MB. Measured with ``pipeline identify LOG --method all --events all`` on the
+#: scale logs (``benchmarks/scale.py``): see BENCHMARKS.md, "the allocator's threshold".
+MMAP_THRESHOLD = 4 << 20
+_M_MMAP_THRESHOLD = -3  # glibc's malloc.h
+
+
+def large_arrays_mapped() -> None:
+    """Fix glibc's mmap threshold at :data:`MMAP_THRESHOLD`: in this process by
+    ``mallopt``, in the processes it starts by glibc's ``MALLOC_MMAP_THRESHOLD_`` (read
+    when a process starts). Nothing where the user set that variable (glibc applied it to
+    this process already) or where the C library is not glibc."""
+    if "MALLOC_MMAP_THRESHOLD_" in os.environ:
+        return
+    mallopt = _libc("mallopt")
+    if mallopt is not None:
+        os.environ["MALLOC_MMAP_THRESHOLD_"] = str(MMAP_THRESHOLD)
+        mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
+
+
 @functools.cache
-def _malloc_trim():
-    """glibc's ``malloc_trim``, or None (another C library, another system)."""
+def _libc(name: str):
+    """glibc's function ``name``, or None (another C library, another system)."""
     if not sys.platform.startswith("linux"):
         return None
     import ctypes  # here: `import pipeline` (and the command line's start) without it
 
     try:
-        return ctypes.CDLL(None).malloc_trim  # the process's own C library
+        return getattr(ctypes.CDLL(None), name)  # the process's own C library
     except (OSError, AttributeError):
         return None
+
+
+def _malloc_trim():
+    """glibc's ``malloc_trim``, or None (another C library, another system)."""
+    return _libc("malloc_trim")
 
 
 def release() -> None:

@@ -1,5 +1,6 @@
 """The C heap's freed pages given back between stages (:mod:`pipeline.heap`)."""
 
+import os
 import sys
 
 import numpy as np
@@ -30,12 +31,15 @@ def test_freed_window_sized_arrays_are_given_back():
 
 def test_release_is_harmless_without_glibc(monkeypatch):
     monkeypatch.setattr(sys, "platform", "darwin")
-    heap._malloc_trim.cache_clear()
+    heap._libc.cache_clear()
     try:
         assert heap._malloc_trim() is None
         heap.release()  # a no-op, not an error
+        monkeypatch.delenv("MALLOC_MMAP_THRESHOLD_", raising=False)
+        heap.large_arrays_mapped()  # a no-op too: the environment left alone
+        assert "MALLOC_MMAP_THRESHOLD_" not in os.environ
     finally:
-        heap._malloc_trim.cache_clear()
+        heap._libc.cache_clear()
 
 
 _LOAD = """
@@ -56,7 +60,6 @@ print(json.dumps({"held": rss() - before, "arrays": 3 * rec.t.nbytes,
 
 def _load_in_a_child(tmp_path, env: dict) -> dict:
     import json
-    import os
     import subprocess
 
     import polars as pl
@@ -92,7 +95,6 @@ def test_the_command_sets_polars_allocator_up_and_import_pipeline_does_not():
     """The command's entry point sets polars' allocator up (a user's setting kept); a
     program that imports the library (and loads a log with it: polars imported) keeps
     polars' own configuration, and its child processes theirs."""
-    import os
     import subprocess
     env = {k: v for k, v in os.environ.items() if k != "_RJEM_MALLOC_CONF"}
     show = "import os; print(os.environ.get('_RJEM_MALLOC_CONF'))"
@@ -109,3 +111,47 @@ def test_the_command_sets_polars_allocator_up_and_import_pipeline_does_not():
     assert child(command, _RJEM_MALLOC_CONF="dirty_decay_ms:10000") == ["dirty_decay_ms:10000"]
     # polars writes its own defaults there when it is imported; ours is not among them
     assert heap.POLARS_MALLOC_CONF not in child("import pipeline, pipeline.api\n" + show)
+
+
+_CHUNKS = """
+import os, sys
+import numpy as np
+from pipeline import heap
+def rss():
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+if sys.argv[1] == "fixed":
+    heap.large_arrays_mapped()
+x = np.ones(1 << 20)  # a chunk (8 MB), mapped and freed: glibc raises its threshold
+del x
+chunks, windows = [], []
+for k in range(20):  # chunked passes' arrays, with windows allocated between them
+    chunks.append(np.ones(1 << 20))
+    windows.append(np.ones(5000))
+before = rss()
+chunks.clear()
+print(before - rss(), os.environ.get("MALLOC_MMAP_THRESHOLD_"))
+"""
+
+
+@pytest.mark.skipif(heap._libc("mallopt") is None, reason="no glibc mallopt here")
+def test_freed_chunks_are_given_back_with_the_threshold_fixed():
+    """After one freed 8 MB chunk glibc serves the next ones from the heap, where freed
+    they stay resident (under the next stage's arrays); with the threshold fixed
+    (:func:`pipeline.heap.large_arrays_mapped`, as the command line does) they are
+    mapped, and freeing twenty of them (168 MB) gives the memory back. The variable is
+    set for the processes it starts; a user's own is kept."""
+    import subprocess
+    env = {k: v for k, v in os.environ.items() if k != "MALLOC_MMAP_THRESHOLD_"}
+
+    def child(mode, **extra):
+        out = subprocess.run([sys.executable, "-c", _CHUNKS, mode], capture_output=True,
+                             text=True, check=True, env={**env, **extra}).stdout.split()
+        return int(out[0]), out[1]
+
+    freed, var = child("fixed")
+    assert freed > 0.9 * 20 * 8 * 2**20 and var == str(heap.MMAP_THRESHOLD)
+    freed, var = child("default")
+    assert freed < 0.2 * 20 * 8 * 2**20 and var == "None"
+    freed, var = child("fixed", MALLOC_MMAP_THRESHOLD_="131072")  # the user's: kept
+    assert var == "131072" and freed > 0.9 * 20 * 8 * 2**20
