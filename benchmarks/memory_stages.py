@@ -1,7 +1,7 @@
 """Where a long log's run peaks in memory: the resident set sampled per stage and per step of
-the analysis, with the Python stack where each step peaked (issue 14 item 6).
+the analysis, and with ``--stacks`` the Python stack where each step peaked (issue 14 item 6).
 
-    python benchmarks/memory_stages.py LOG.csv [--out DIR] [--events all] [--traced]
+    python benchmarks/memory_stages.py LOG.csv [--out DIR] [--events all] [--traced] [--stacks]
 
 ``LOG.csv`` is a ``time,u,y`` log, e.g. one that ``benchmarks/scale.py --keep DIR`` wrote.
 The stages of ``pipeline run`` are run in this process as ``benchmarks/scale.py`` runs
@@ -9,11 +9,14 @@ them (load, segment, analyse with event 0 identifying, or with ``--events all`` 
 event as ``pipeline identify --events all`` does, report), while a thread reads the
 resident set (``/proc/self/statm``) every 2 ms. Each stage and each analysis step
 (:data:`STEPS`, wrapped to say when they run) gets its peak over the resident set after
-the imports, against the raw ``t, u, y`` arrays (``3 x 8 x samples`` bytes), and the stack
-of the main thread when the sampler saw it (to the GIL's switch interval: the step named
-is exact, the line within it approximate). ``tracemalloc`` does not see the C
-allocators' retention (glibc's freed heap, polars' jemalloc pages), which is part of
-what the process holds, so the resident set is what is measured.
+the imports, against the raw ``t, u, y`` arrays (``3 x 8 x samples`` bytes), and with
+``--stacks`` the stack of the main thread when the sampler saw it (to the GIL's switch
+interval: the step named is exact, the line within it approximate; holding the frames
+keeps a function that just returned alive with its locals, so those peaks run high).
+``tracemalloc`` does not see the C allocators' retention (glibc's freed heap, polars'
+jemalloc pages), which is part of what the process holds, so the resident set is what is
+measured. The command line's allocator settings are made as it makes them
+(:mod:`pipeline.heap`).
 
 With ``--traced`` the analysis runs under ``tracemalloc`` instead (several times slower),
 and each step's peak is of the memory Python and numpy hold (the loaded record excluded:
@@ -60,8 +63,9 @@ def rss() -> int:
 class Sampler:
     """The peak resident set of each labelled stage, and the stack at it."""
 
-    def __init__(self) -> None:
+    def __init__(self, stacks: bool = False) -> None:
         self.label: str | None = None
+        self.stacks = stacks
         self.peaks: dict[str, tuple[int, list[str]]] = {}
         self.main = threading.main_thread().ident
         self._stop = False
@@ -71,11 +75,18 @@ class Sampler:
         while not self._stop:
             r, label = rss(), self.label
             if label and r > self.peaks.get(label, (0, []))[0]:
-                frame = sys._current_frames().get(self.main)
-                stack = [f"{Path(f.filename).name}:{f.lineno} {f.name}"
-                         for f in traceback.extract_stack(frame)][-6:] if frame else []
-                self.peaks[label] = (r, stack)
+                self.peaks[label] = (r, self._stack() if self.stacks else [])
             time.sleep(0.002)
+
+    def _stack(self) -> list[str]:
+        """The main thread's innermost frames. Holding them (until the next look) keeps a
+        function that returned meanwhile alive with its locals, so the stacks are
+        opt-in (``--stacks``): without them the peaks are the run's own."""
+        frame = sys._current_frames().get(self.main)
+        stack = [f"{Path(f.filename).name}:{f.lineno} {f.name}"
+                 for f in traceback.extract_stack(frame)][-6:] if frame else []
+        del frame
+        return stack
 
     def __enter__(self) -> Sampler:
         self._thread.start()
@@ -108,6 +119,9 @@ def main() -> None:
     ap.add_argument("--events", default="0", help="identification events: all, or 0,2")
     ap.add_argument("--traced", action="store_true",
                     help="the analysis' live Python/numpy memory per step (tracemalloc)")
+    ap.add_argument("--stacks", action="store_true",
+                    help="the stack where each step peaked (holds the main thread's frames "
+                    "for a moment: the peaks can be higher than the run's own)")
     a = ap.parse_args()
     events = "all" if a.events == "all" else tuple(int(v) for v in a.events.split(","))
     if a.traced:
@@ -116,16 +130,17 @@ def main() -> None:
     import importlib
 
     import pipeline
-    from pipeline.heap import polars_returns_freed_pages
+    from pipeline.heap import large_arrays_mapped, polars_returns_freed_pages
 
     polars_returns_freed_pages()  # as the command line does, before polars is imported
+    large_arrays_mapped()
     import pipeline.io.delimited  # noqa: F401  (imported before the baseline is read)
     from pipeline.analysis import AnalysisOptions
     from pipeline.report.build import write_run
     from pipeline.results import RunResult
 
     base = rss()
-    with Sampler() as s, tempfile.TemporaryDirectory() as tmp:
+    with Sampler(a.stacks) as s, tempfile.TemporaryDirectory() as tmp:
         for module, name in STEPS:
             s.wrap(importlib.import_module(module), name)
 
