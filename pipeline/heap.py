@@ -71,14 +71,16 @@ _M_MMAP_THRESHOLD = -3  # glibc's malloc.h
 def large_arrays_mapped() -> None:
     """Fix glibc's mmap threshold at :data:`MMAP_THRESHOLD`: in this process by
     ``mallopt``, in the processes it starts by glibc's ``MALLOC_MMAP_THRESHOLD_`` (read
-    when a process starts). Nothing where the user set that variable (glibc applied it to
-    this process already) or where the C library is not glibc."""
-    if "MALLOC_MMAP_THRESHOLD_" in os.environ:
+    when a process starts). Nothing where the user chose a threshold (that variable, or
+    ``GLIBC_TUNABLES``' ``glibc.malloc.mmap_threshold``: glibc applied it to this process
+    already), where the C library is not glibc, or where glibc refuses the value (a
+    32-bit build's maximum is 512 kB)."""
+    if "MALLOC_MMAP_THRESHOLD_" in os.environ or \
+            "malloc.mmap_threshold" in os.environ.get("GLIBC_TUNABLES", ""):
         return
     mallopt = _libc("mallopt")
-    if mallopt is not None:
+    if mallopt is not None and mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1:
         os.environ["MALLOC_MMAP_THRESHOLD_"] = str(MMAP_THRESHOLD)
-        mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
 
 
 @functools.cache

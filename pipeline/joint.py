@@ -198,7 +198,8 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
         options = replace(options or RefineOptions(), coarse=False)
     # the pooled squared errors in one buffer, each fold's written as it is scored (the
     # folds' errors, their concatenation and its square were each as long as the span)
-    sizes = [sum(b - a for a, b, _ in validation_runs(list(events), held)) for held in held_out]
+    evs = list(events)
+    sizes = [sum(b - a for a, b, _ in validation_runs(evs, held)) for held in held_out]
     squares, at = np.empty(sum(sizes)), 0
     folds = []
     for held, step, size in zip(held_out, approx, sizes, strict=True):
@@ -210,7 +211,8 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
         else:
             model, u0 = ProcessModel(joint.structure, step[0]), step[1]
         u0 = u0 if model.integrating else None
-        _, e = heldout_residuals(model, record, list(events), held, u0)
+        e = heldout_residuals(model, record, evs, held, u0)[1]
+        assert e.size == size, "a fold's errors are its validation runs' samples"
         np.square(e, out=squares[at: at + size])
         at += size
         folds.append({"events": held, "params": dict(model.params), "u0": u0,

@@ -96,7 +96,8 @@ def test_the_command_sets_polars_allocator_up_and_import_pipeline_does_not():
     program that imports the library (and loads a log with it: polars imported) keeps
     polars' own configuration, and its child processes theirs."""
     import subprocess
-    env = {k: v for k, v in os.environ.items() if k != "_RJEM_MALLOC_CONF"}
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("_RJEM_MALLOC_CONF", "MALLOC_MMAP_THRESHOLD_")}
     show = "import os; print(os.environ.get('_RJEM_MALLOC_CONF'))"
     command = ("import sys, contextlib; sys.argv = ['pipeline', '--version']\n"
                "from pipeline.__main__ import main\n"
@@ -108,6 +109,11 @@ def test_the_command_sets_polars_allocator_up_and_import_pipeline_does_not():
                               ).stdout.strip().splitlines()[-1].split(",")
 
     assert child(command) == [heap.POLARS_MALLOC_CONF]
+    if heap._libc("mallopt") is not None:  # and glibc's threshold (import pipeline: not)
+        shows = command.replace("_RJEM_MALLOC_CONF", "MALLOC_MMAP_THRESHOLD_")
+        assert child(shows) == [str(heap.MMAP_THRESHOLD)]
+        assert child("import pipeline, pipeline.api\n" + show.replace(
+            "_RJEM_MALLOC_CONF", "MALLOC_MMAP_THRESHOLD_")) == ["None"]
     assert child(command, _RJEM_MALLOC_CONF="dirty_decay_ms:10000") == ["dirty_decay_ms:10000"]
     # polars writes its own defaults there when it is imported; ours is not among them
     assert heap.POLARS_MALLOC_CONF not in child("import pipeline, pipeline.api\n" + show)
@@ -120,38 +126,55 @@ from pipeline import heap
 def rss():
     with open("/proc/self/statm") as fh:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-if sys.argv[1] == "fixed":
+mode, size = sys.argv[1], int(sys.argv[2])
+if mode == "fixed":
     heap.large_arrays_mapped()
-x = np.ones(1 << 20)  # a chunk (8 MB), mapped and freed: glibc raises its threshold
-del x
-chunks, windows = [], []
+if size > heap.MMAP_THRESHOLD:
+    x = np.ones(size // 8)  # a chunk, mapped and freed: glibc raises its threshold to it
+    del x
+arrays, windows = [], []
 for k in range(20):  # chunked passes' arrays, with windows allocated between them
-    chunks.append(np.ones(1 << 20))
+    arrays.append(np.ones(size // 8))
     windows.append(np.ones(5000))
 before = rss()
-chunks.clear()
+arrays.clear()
 print(before - rss(), os.environ.get("MALLOC_MMAP_THRESHOLD_"))
 """
 
 
-@pytest.mark.skipif(heap._libc("mallopt") is None, reason="no glibc mallopt here")
-def test_freed_chunks_are_given_back_with_the_threshold_fixed():
+def _glibc() -> bool:
+    try:
+        return os.confstr("CS_GNU_LIBC_VERSION") is not None
+    except (ValueError, OSError, AttributeError):
+        return False
+
+
+@pytest.mark.skipif(not _glibc() or heap._libc("mallopt") is None, reason="glibc's malloc")
+def test_the_threshold_is_fixed_so_freed_chunks_are_given_back():
     """After one freed 8 MB chunk glibc serves the next ones from the heap, where freed
     they stay resident (under the next stage's arrays); with the threshold fixed
     (:func:`pipeline.heap.large_arrays_mapped`, as the command line does) they are
-    mapped, and freeing twenty of them (168 MB) gives the memory back. The variable is
-    set for the processes it starts; a user's own is kept."""
+    mapped, and freeing twenty of them (160 MB) gives the memory back. Arrays below the
+    threshold (1 MB) stay on the heap, which glibc's default maps. The variable is set
+    for the processes it starts; a user's own choice is kept."""
     import subprocess
-    env = {k: v for k, v in os.environ.items() if k != "MALLOC_MMAP_THRESHOLD_"}
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")
+           and k not in ("GLIBC_TUNABLES", "LD_PRELOAD")}
 
-    def child(mode, **extra):
-        out = subprocess.run([sys.executable, "-c", _CHUNKS, mode], capture_output=True,
-                             text=True, check=True, env={**env, **extra}).stdout.split()
+    def child(mode, size, **extra):
+        out = subprocess.run([sys.executable, "-c", _CHUNKS, mode, str(size)],
+                             capture_output=True, text=True, check=True,
+                             env={**env, **extra}).stdout.split()
         return int(out[0]), out[1]
 
-    freed, var = child("fixed")
-    assert freed > 0.9 * 20 * 8 * 2**20 and var == str(heap.MMAP_THRESHOLD)
-    freed, var = child("default")
-    assert freed < 0.2 * 20 * 8 * 2**20 and var == "None"
-    freed, var = child("fixed", MALLOC_MMAP_THRESHOLD_="131072")  # the user's: kept
-    assert var == "131072" and freed > 0.9 * 20 * 8 * 2**20
+    chunk, small = 8 << 20, 1 << 20
+    freed, var = child("fixed", chunk)
+    assert freed > 0.9 * 20 * chunk and var == str(heap.MMAP_THRESHOLD)
+    assert child("default", chunk)[0] < 0.2 * 20 * chunk
+    assert child("fixed", small)[0] < 0.2 * 20 * small  # the threshold is above 1 MB
+    assert child("default", small)[0] > 0.9 * 20 * small
+    freed, var = child("fixed", chunk, MALLOC_MMAP_THRESHOLD_="131072")  # the user's
+    assert var == "131072" and freed > 0.9 * 20 * chunk
+    tunable = "glibc.malloc.mmap_threshold=131072"
+    freed, var = child("fixed", small, GLIBC_TUNABLES=tunable)  # the user's, this way
+    assert var == "None" and freed > 0.9 * 20 * small
