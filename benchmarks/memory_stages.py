@@ -61,7 +61,7 @@ def rss() -> int:
 
 
 class Sampler:
-    """The peak resident set of each labelled stage, and the stack at it."""
+    """The peak resident set of each labelled stage, and the stack at it (``stacks``)."""
 
     def __init__(self, stacks: bool = False) -> None:
         self.label: str | None = None
@@ -85,7 +85,6 @@ class Sampler:
         frame = sys._current_frames().get(self.main)
         stack = [f"{Path(f.filename).name}:{f.lineno} {f.name}"
                  for f in traceback.extract_stack(frame)][-6:] if frame else []
-        del frame
         return stack
 
     def __enter__(self) -> Sampler:

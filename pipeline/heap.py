@@ -96,14 +96,9 @@ def _libc(name: str):
         return None
 
 
-def _malloc_trim():
-    """glibc's ``malloc_trim``, or None (another C library, another system)."""
-    return _libc("malloc_trim")
-
-
 def release() -> None:
     """Return the C heap's free pages to the system (``malloc_trim(0)``; nothing where
     the C library has no such call). Costs about a millisecond."""
-    trim = _malloc_trim()
+    trim = _libc("malloc_trim")
     if trim is not None:
         trim(0)

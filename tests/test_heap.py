@@ -14,7 +14,7 @@ def _rss() -> int:
         return int(fh.read().split()[1]) * 4096
 
 
-@pytest.mark.skipif(heap._malloc_trim() is None, reason="no glibc malloc_trim here")
+@pytest.mark.skipif(heap._libc("malloc_trim") is None, reason="no glibc malloc_trim here")
 def test_freed_window_sized_arrays_are_given_back():
     """Window-sized arrays (below glibc's mapping threshold, so on the heap) freed in a
     checkerboard, as an analysis frees its windows: the holes stay resident until
@@ -33,7 +33,7 @@ def test_release_is_harmless_without_glibc(monkeypatch):
     monkeypatch.setattr(sys, "platform", "darwin")
     heap._libc.cache_clear()
     try:
-        assert heap._malloc_trim() is None
+        assert heap._libc("malloc_trim") is None
         heap.release()  # a no-op, not an error
         monkeypatch.delenv("MALLOC_MMAP_THRESHOLD_", raising=False)
         heap.large_arrays_mapped()  # a no-op too: the environment left alone
@@ -98,7 +98,9 @@ def test_the_command_sets_polars_allocator_up_and_import_pipeline_does_not():
     import subprocess
     env = {k: v for k, v in os.environ.items()
            if k not in ("_RJEM_MALLOC_CONF", "MALLOC_MMAP_THRESHOLD_")}
-    show = "import os; print(os.environ.get('_RJEM_MALLOC_CONF'))"
+    def shows(var):
+        return f"import os; print(os.environ.get({var!r}))"
+    show = shows("_RJEM_MALLOC_CONF")
     command = ("import sys, contextlib; sys.argv = ['pipeline', '--version']\n"
                "from pipeline.__main__ import main\n"
                "with contextlib.suppress(SystemExit): main()\n" + show)
@@ -110,10 +112,9 @@ def test_the_command_sets_polars_allocator_up_and_import_pipeline_does_not():
 
     assert child(command) == [heap.POLARS_MALLOC_CONF]
     if heap._libc("mallopt") is not None:  # and glibc's threshold (import pipeline: not)
-        shows = command.replace("_RJEM_MALLOC_CONF", "MALLOC_MMAP_THRESHOLD_")
-        assert child(shows) == [str(heap.MMAP_THRESHOLD)]
-        assert child("import pipeline, pipeline.api\n" + show.replace(
-            "_RJEM_MALLOC_CONF", "MALLOC_MMAP_THRESHOLD_")) == ["None"]
+        threshold = shows("MALLOC_MMAP_THRESHOLD_")
+        assert child(command.replace(show, threshold)) == [str(heap.MMAP_THRESHOLD)]
+        assert child("import pipeline, pipeline.api\n" + threshold) == ["None"]
     assert child(command, _RJEM_MALLOC_CONF="dirty_decay_ms:10000") == ["dirty_decay_ms:10000"]
     # polars writes its own defaults there when it is imported; ours is not among them
     assert heap.POLARS_MALLOC_CONF not in child("import pipeline, pipeline.api\n" + show)
