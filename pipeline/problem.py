@@ -43,21 +43,23 @@ class Columns:
         product is the same row by the same coefficients as in the whole stacked
         design's. A chunk is never one row (numpy takes a dot product there, not the
         matrix-vector product, and rounds differently): a last single row joins the
-        chunk before it."""
+        chunk before it. The chunks' products are written into the one output array (no
+        list of pieces and their concatenation, two more arrays of its length)."""
         n = self.forced[0].size
-        out = []
-        s = 0
+        out = np.empty(n if mask is None else int(np.count_nonzero(mask)))
+        s = k = 0
         while s < n:
             e = min(s + chunk, n)
             e = n if n - e == 1 else e
             a = np.column_stack([*(x[s:e] for x in self.forced), np.ones(e - s),
                                  *(x[s:e] for x in self.nuisance)])
             v = a @ c
-            out.append(v if mask is None else v[mask[s:e]])
+            if mask is not None:
+                v = v[mask[s:e]]
+            out[k: k + v.size] = v
+            k += v.size
             s = e
-        if not out:
-            return np.empty(0)
-        return out[0] if len(out) == 1 else np.concatenate(out)
+        return out
 
 
 @dataclass(frozen=True)
@@ -141,8 +143,13 @@ class Problem:
 
     @cached_property
     def offset_rows(self) -> np.ndarray:
-        """The rows of the offset column (all ones), which no parameter changes."""
-        return self.rows(np.ones(self.t.size))
+        """The rows of the offset column (all ones), which no parameter changes:
+        :meth:`rows` of it without a span-long column of ones (a block's sum of ones is
+        its length, exactly)."""
+        if self.bounds is None:
+            return np.ones(self.t.size if self.full else int(np.count_nonzero(self.mask)))
+        lengths = np.diff(np.append(self.bounds, self.t.size)).astype(np.float64)
+        return lengths[self.keep] / np.sqrt(self.counts)
 
     def design_rows(self, p: Mapping[str, float]) -> np.ndarray:
         """The criterion rows of the design at ``p`` (:meth:`columns`, :meth:`reduce`)."""

@@ -84,14 +84,16 @@ class RefineOptions:
 @dataclass(frozen=True)
 class Refinement:
     """A refined model: its parameters with intervals, the fitted operating point, the
-    fit over the chosen samples (``fitted``, ``residuals``) and how it was obtained."""
+    fit's residuals over the chosen samples and how it was obtained; ``fitted``, the
+    model's output at those samples, only when bootstrap refits were asked for (they
+    start from it; on a long span it is one more array of the span's length)."""
 
     model: ProcessModel
     y0: float
     u0: float
     ci95: dict[str, tuple[float, float]]
     std: dict[str, float]
-    fitted: np.ndarray
+    fitted: np.ndarray | None
     residuals: np.ndarray
     initial_state: str
     n_linear: int
@@ -269,18 +271,20 @@ def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
             initial_state: str, u_ref: float, opt: RefineOptions, nfev: int, runs: int
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p`` (``y``: the
-    span's output). Of the span-long arrays only the fitted output is alive while the
-    Jacobian simulates the span: the design's columns are dropped before it and the
-    residuals made after it."""
+    span's output). Of the span-long arrays only the residuals are alive while the
+    Jacobian simulates the span: the design's columns are dropped before it, and the
+    fitted output too unless bootstrap refits start from it."""
     cols, rows, c, rank, u0 = _linear_fit(prob, p, u_ref)
     rows_resid = prob.y - rows @ c
     fitted = cols.product(c, None if prob.full else prob.mask)
     del cols, rows
+    resid = np.asarray(y, np.float64)[prob.mask]  # a copy, made the residuals in place
+    np.subtract(resid, fitted, out=resid)
+    if opt.bootstrap <= 0:
+        fitted = None
     K, y0 = float(c[0]), float(c[1])
     free = list(space.names)
     jac = _profiled_jacobian(prob, space, p, K)
-    resid = np.asarray(y, np.float64)[prob.mask]  # a copy, made the residuals in place
-    np.subtract(resid, fitted, out=resid)
     factor = variance_factor(rows_resid)
     cov = covariance(jac, rows_resid, rank + len(free), factor)
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))

@@ -260,5 +260,7 @@ def test_a_fold_without_its_mask_has_the_same_rows():
         assert (fold.mask is None) == (max_rows < n)
         assert fold.rows(x).tobytes() == kept.rows(x).tobytes()
         assert fold.y.tobytes() == kept.y.tobytes()
+        # the offset's rows are made from the blocks' lengths, without a column of ones
+        assert fold.offset_rows.tobytes() == kept.rows(np.ones(n)).tobytes()
         p = {"T": 4.0, "delay": 1.0}
         assert fold.design_rows(p).tobytes() == kept.design_rows(p).tobytes()
