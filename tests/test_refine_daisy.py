@@ -1,5 +1,5 @@
 """DaISy 99-001 (the lamp heating a steel plate): the recommended model and its validation
-MSE beside the best graphical model's, and one model over all six steps (``-s`` prints
+MSE beside the best graphical model's, and one model over all six steps (``-n0 -s`` prints
 the figures). The plant's gain falls with the operating point, so no single LTI model
 fits every step: the per-event refinements show the fall, the joint fit has one gain and
 its held-out error shows the misfit instead of hiding it."""

@@ -9,7 +9,7 @@
    mapped onto the true structure where they are the same model (two real lags = an
    overdamped second order = an equal-lag pair; a first-order lag = two lags with T2 = 0);
    a model of another class has an infinite error. K and the dynamics the issue names (T;
-   T1; zeta and wn) are bounded one by one (medians); ``-s`` prints every median.
+   T1; zeta and wn) are bounded one by one (medians); ``-n0 -s`` prints every median.
    The sample time matters for the FOPDT ratio: the graphical dead time (a band exit read
    on smoothed data) is nearly as good as the least-squares one at T/20 (ratio 0.70 at
    dt 0.5 s), the least-squares one pulls ahead with more samples (0.45 at dt 0.1 s).
