@@ -43,8 +43,8 @@ class Columns:
         product is the same row by the same coefficients as in the whole stacked
         design's. A chunk is never one row (numpy takes a dot product there, not the
         matrix-vector product, and rounds differently): a last single row joins the
-        chunk before it. The chunks' products are written into the one output array (no
-        list of pieces and their concatenation, two more arrays of its length)."""
+        chunk before it. The chunks' products are written into the one output array (not
+        a list of pieces and then their concatenation: one array of its length less)."""
         n = self.forced[0].size
         out = np.empty(n if mask is None else int(np.count_nonzero(mask)))
         s = k = 0
