@@ -15,18 +15,38 @@ def block_means(v: np.ndarray, m: int) -> np.ndarray:
     return np.add.reduceat(v, idx) / np.diff(np.r_[idx, v.size])
 
 
+def runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The maximal runs of true samples of ``mask``: their first positions and the
+    positions after their last. From the mask's one-byte differences: a long span's fit
+    samples as an index array (and its differences) were 16 bytes a sample, these are
+    two (a 10 M-sample span: 160 MB of temporaries, 20 MB here)."""
+    m = np.asarray(mask, bool)
+    if m.size == 0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    d = np.diff(m.view(np.int8))
+    first = np.flatnonzero(d == 1) + 1
+    after = np.flatnonzero(d == -1) + 1
+    del d
+    if m[0]:
+        first = np.r_[0, first]
+    if m[-1]:
+        after = np.r_[after, m.size]
+    return first, after
+
+
 def blocks(mask: np.ndarray, max_rows: int) -> tuple[np.ndarray, np.ndarray]:
     """Row starts and sizes: blocks of ``ceil(n / max_rows)`` consecutive fit samples that
-    never straddle a gap in ``mask``."""
-    idx = np.flatnonzero(mask)
-    m = max(1, math.ceil(idx.size / max_rows))
+    never straddle a gap in ``mask`` (starts as indices into the fit samples), from the
+    mask's :func:`runs`."""
+    first, after = runs(mask)
+    offsets = np.r_[0, np.cumsum(after - first)]  # fit-sample index of each run's start
+    total = int(offsets[-1])
+    m = max(1, math.ceil(total / max_rows))
     if m == 1:
-        return np.arange(idx.size), np.ones(idx.size)
-    seg = np.flatnonzero(np.diff(idx) > 1) + 1  # where a new contiguous run begins
-    bounds = np.r_[0, seg, idx.size]
-    starts = np.concatenate([np.arange(a, b, m) for a, b in zip(bounds[:-1], bounds[1:],
+        return np.arange(total), np.ones(total)
+    starts = np.concatenate([np.arange(a, b, m) for a, b in zip(offsets[:-1], offsets[1:],
                                                                 strict=True)])
-    return starts, np.diff(np.r_[starts, idx.size]).astype(float)
+    return starts, np.diff(np.r_[starts, total]).astype(float)
 
 
 def block_bounds(mask: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -34,13 +54,15 @@ def block_bounds(mask: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.n
     ``starts``) as ``numpy.add.reduceat`` boundaries in the span, with the first sample
     of every gap of ``mask`` after a block as a boundary too, and which of the reduced
     blocks are the rows (the others are the gaps)."""
-    idx = np.flatnonzero(mask)
-    if idx.size == 0:
+    first, after = runs(mask)
+    if first.size == 0:
         return np.zeros(0, int), np.zeros(0, int)
-    first = idx[starts]
-    gaps = np.flatnonzero(mask[:-1] & ~mask[1:]) + 1  # a run of fit samples ends here
-    bounds = np.union1d(first, gaps)
-    return bounds, np.searchsorted(bounds, first)
+    offsets = np.r_[0, np.cumsum(after - first)]
+    run = np.searchsorted(offsets, starts, side="right") - 1  # the run each block is in
+    at = first[run] + (starts - offsets[run])  # its first sample's position in the span
+    gaps = after[after < np.size(mask)]  # a run of fit samples ends here
+    bounds = np.union1d(at, gaps)
+    return bounds, np.searchsorted(bounds, at)
 
 
 def solve(a: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:

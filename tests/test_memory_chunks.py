@@ -264,3 +264,43 @@ def test_a_fold_without_its_mask_has_the_same_rows():
         assert fold.offset_rows.tobytes() == kept.rows(np.ones(n)).tobytes()
         p = {"T": 4.0, "delay": 1.0}
         assert fold.design_rows(p).tobytes() == kept.design_rows(p).tobytes()
+
+
+def _blocks_from_indices(mask, max_rows):
+    """The blocks and boundaries as first written: from the fit samples' index array
+    (16 bytes a sample of temporaries on a long span)."""
+    idx = np.flatnonzero(mask)
+    m = max(1, -(-idx.size // max_rows))
+    if m == 1:
+        return np.arange(idx.size), np.ones(idx.size), None
+    seg = np.flatnonzero(np.diff(idx) > 1) + 1
+    edges = np.r_[0, seg, idx.size]
+    starts = np.concatenate([np.arange(a, b, m)
+                             for a, b in zip(edges[:-1], edges[1:], strict=True)])
+    gaps = np.flatnonzero(mask[:-1] & ~mask[1:]) + 1
+    bounds = np.union1d(idx[starts], gaps)
+    return starts, np.diff(np.r_[starts, idx.size]).astype(float), \
+        (bounds, np.searchsorted(bounds, idx[starts]))
+
+
+def test_blocks_from_the_masks_runs_are_the_index_arrays_blocks():
+    """:func:`pipeline.lstsq.blocks` and ``block_bounds`` work from the mask's runs, not
+    the fit samples' index array: the same starts, sizes, boundaries and rows on random
+    masks (runs at the edges, single samples, empty and full masks)."""
+    from pipeline import lstsq
+
+    rng = np.random.default_rng(7)
+    for trial in range(3000):
+        n = int(rng.integers(0, 300))
+        mask = (rng.uniform(size=n) < rng.uniform()) if trial % 3 else np.zeros(n, bool)
+        if trial % 3 == 2:
+            for _ in range(int(rng.integers(1, 6))):
+                a = int(rng.integers(0, max(n, 1)))
+                mask[a: a + int(rng.integers(0, 60))] = True
+        max_rows = int(rng.integers(1, 40))
+        starts, counts, bb = _blocks_from_indices(mask, max_rows)
+        got = lstsq.blocks(mask, max_rows)
+        assert np.array_equal(got[0], starts) and np.array_equal(got[1], counts)
+        if bb is not None:
+            bounds, keep = lstsq.block_bounds(mask, got[0])
+            assert np.array_equal(bounds, bb[0]) and np.array_equal(keep, bb[1])
