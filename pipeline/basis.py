@@ -72,23 +72,36 @@ def uniform_step(t: np.ndarray) -> float | None:
 
 
 def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.ndarray,
-                    dt: float | None = None, *, u0: float = 0.0) -> np.ndarray:
+                    dt: float | None = None, *, u0: float = 0.0,
+                    minus: np.ndarray | None = None) -> np.ndarray:
     """Unit-gain response from rest to the held input ``du``, a deviation from ``u0``
     (see the module docstring; ``u0`` is subtracted chunk by chunk, so a caller can give
     the measured input of a long record as it is, without making its deviation); ``dt``
-    is the uniform sample time (None: found from ``t``, irregular grids are superposed)."""
+    is the uniform sample time (None: found from ``t``, irregular grids are superposed).
+    With ``minus``, the response less ``minus``, written into ``minus``'s array (a long
+    record's filter subtracts it chunk by chunk: no second record-long array); the same
+    numbers as ``np.subtract(response, minus)``."""
     spec = STRUCTURES[structure]
+    n = du.size
+    dt = uniform_step(t) if dt is None and n else dt
+    q = {**p, "K": 1.0}
+    iir = None if dt is None or n == 0 else _iir(spec, q, dt)
+    if n > CHUNK and iir is not None:
+        return _filtered(*iir, du, u0, minus)
+    x = _response(structure, q, t, du, dt, u0, iir)
+    return x if minus is None else np.subtract(x, minus, out=minus)
+
+
+def _response(structure: str, q: dict[str, float], t: np.ndarray, du: np.ndarray,
+              dt: float | None, u0: float, iir) -> np.ndarray:
+    """:func:`forced_response` of a unit-gain model ``q`` other than a long record's
+    recursive filter."""
     n = du.size
     if n == 0:
         return np.empty(0)
-    dt = uniform_step(t) if dt is None else dt
-    q = {**p, "K": 1.0}
-    iir = None if dt is None else _iir(spec, q, dt)
     if dt is not None and iir is None:  # the exact pulse response, convolved
         m = ProcessModel(structure, q)
         return convolved(pulse_response(m, dt, pulse_length(m, dt, n)), du, u0)
-    if n > CHUNK and iir is not None:
-        return _filtered(*iir, du, u0)
     if u0:
         du = du - u0
     if dt is None:
@@ -100,19 +113,26 @@ def forced_response(structure: str, p: dict[str, float], t: np.ndarray, du: np.n
     return np.concatenate([np.zeros(lag), x]) if lag else x
 
 
-def _filtered(b: np.ndarray, a: np.ndarray, lag: int, u: np.ndarray, u0: float
-              ) -> np.ndarray:
+def _filtered(b: np.ndarray, a: np.ndarray, lag: int, u: np.ndarray, u0: float,
+              minus: np.ndarray | None = None) -> np.ndarray:
     """``lfilter(b, a, u - u0)`` delayed by ``lag`` samples (zeros before), filtered
     :data:`pipeline.heap.CHUNK` samples at a time into the one output array (the filter's
     state carried from chunk to chunk: the same output to the bit), so that the
     record-long input deviation, the filter's output and its copy shifted by the dead time
-    (three 80 MB arrays at 10 M samples) are one output array."""
+    (three 80 MB arrays at 10 M samples) are one output array; with ``minus`` that array
+    is ``minus``'s, each chunk's output less it (:func:`forced_response`)."""
     n = u.size
-    out = np.zeros(n)
+    out = np.zeros(n) if minus is None else minus
+    if minus is not None:  # the zeros before the dead time, less minus there
+        np.subtract(0.0, out[:lag], out=out[:lag])
     z = np.zeros(max(a.size, b.size) - 1)
     for s in range(0, n - lag, CHUNK):
         e = min(s + CHUNK, n - lag)
-        out[lag + s: lag + e], z = signal.lfilter(b, a, u[s:e] - u0 if u0 else u[s:e], zi=z)
+        v, z = signal.lfilter(b, a, u[s:e] - u0 if u0 else u[s:e], zi=z)
+        if minus is None:
+            out[lag + s: lag + e] = v
+        else:
+            np.subtract(v, out[lag + s: lag + e], out=out[lag + s: lag + e])
     return out
 
 
@@ -215,6 +235,13 @@ def free_columns(structure: str, p: dict[str, float], t_rel: np.ndarray, horizon
                  n_max: int = 3) -> list[np.ndarray]:
     """:func:`free_basis`' columns as separate arrays (a span-long design is reduced a
     column at a time, :class:`pipeline.problem.Columns`)."""
+    return list(each_free_column(structure, p, t_rel, horizon, n_max))
+
+
+def each_free_column(structure: str, p: dict[str, float], t_rel: np.ndarray,
+                     horizon: float, n_max: int = 3):
+    """:func:`free_columns` one at a time (a span-long design's rows are made a column at
+    a time, :meth:`pipeline.problem.Problem.rows_of`)."""
     spec = STRUCTURES[structure]
     q = {**p, "K": 1.0}
     m = basis_lags(spec, q, n_max)
@@ -224,7 +251,8 @@ def free_columns(structure: str, p: dict[str, float], t_rel: np.ndarray, horizon
     ts += float(q.get("delay", 0.0))
     taus = ts * np.geomspace(0.25, 4.0, m) if m > 1 else np.array([ts])
     s_now = step_delayed(spec, q, t_rel)
-    return [step_delayed(spec, q, t_rel + tau) - s_now for tau in taus]
+    for tau in taus:
+        yield step_delayed(spec, q, t_rel + tau) - s_now
 
 
 def offset_response(structure: str, p: dict[str, float], t_rel: np.ndarray) -> np.ndarray:

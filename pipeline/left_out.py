@@ -89,9 +89,9 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Iterable[np.n
     points = _neighbours(space, z0, dt)
     kept: list[list[np.ndarray] | None] = [[] for _ in folds]
     for j, z in enumerate(points):
-        d = base.columns({**held, **space.from_z(z)})
+        rows = base.rows_of({**held, **space.from_z(z)}, folds)  # a span column at a time
         for k, f in enumerate(folds):
-            r = None if kept[k] is None else _guarded(_residual, f, f.reduce(d))
+            r = None if kept[k] is None else _guarded(_residual, f, rows[k])
             if r is None:
                 kept[k] = None
             elif j and j % 2 == 0:  # the pair (z0 +- h e_i) of coordinate i = j/2 - 1
@@ -100,7 +100,7 @@ def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Iterable[np.n
                 kept[k].append((up - r) / max(points[j - 1][i] - z[i], 1e-300))
             else:
                 kept[k].append(r)
-        del d  # span-long: not alive while the next point's are simulated
+        del rows
     out = []
     for f, r in zip(folds, kept, strict=True):
         z = None if r is None else _guarded(_steps, f, space, held, z0, r[0],

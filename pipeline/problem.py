@@ -12,9 +12,8 @@ multiplied out a chunk of samples at a time, never stacked into one span-long ma
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
-from functools import cached_property
 
 import numpy as np
 
@@ -75,7 +74,6 @@ class Problem:
     u_ref: float  # the input level the model starts at rest at
     y: np.ndarray  # measured output at the criterion rows
     mask: np.ndarray | None  # fit samples of the span (None: not kept, see with_mask)
-    starts: np.ndarray  # first fit sample (index into the masked samples) of each row
     counts: np.ndarray  # fit samples per row
     dt: float | None
     horizon: float
@@ -99,8 +97,7 @@ class Problem:
         # response and the input balance (a state not at rest), an irregular grid
         t_rel = t - t[0] if initial_state != "rest" or dt is None else None
         base = cls(structure, t, t_rel, np.asarray(u, np.float64), float(u_ref), np.empty(0),
-                   np.ones(t.size, bool), np.zeros(0, int), np.zeros(0), dt,
-                   float(t[-1] - t[0]), initial_state, free_lags)
+                   None, np.zeros(0), dt, float(t[-1] - t[0]), initial_state, free_lags)
         return base.with_mask(mask, y, max_rows)
 
     def with_mask(self, mask: np.ndarray, y: np.ndarray, max_rows: int,
@@ -114,9 +111,11 @@ class Problem:
         starts, counts = blocks(mask, max_rows)
         bounds, keep = ((None, None) if starts.size == np.count_nonzero(mask)
                         else block_bounds(mask, starts))
+        if bounds is not None and mask.size < 2**31:  # half the index arrays a fold
+            bounds, keep = bounds.astype(np.int32), keep.astype(np.int32)  # keeps: the
+            # same sums (numpy.add.reduceat takes the indices as positions either way)
         prob = replace(self, mask=mask if keep_mask or bounds is None else None,
-                       starts=starts, counts=counts, full=bool(mask.all()), bounds=bounds,
-                       keep=keep)
+                       counts=counts, full=bool(mask.all()), bounds=bounds, keep=keep)
         return replace(prob, y=prob.rows(np.asarray(y, np.float64)))
 
     @property
@@ -141,19 +140,39 @@ class Problem:
         w = np.sqrt(self.counts) if a.ndim == 1 else np.sqrt(self.counts)[:, None]
         return np.add.reduceat(a, self.bounds, axis=0)[self.keep] / w
 
-    @cached_property
+    @property
     def offset_rows(self) -> np.ndarray:
         """The rows of the offset column (all ones), which no parameter changes:
         :meth:`rows` of it without a span-long column of ones (a block's sum of ones is
-        its length, exactly)."""
+        its length, exactly). Made when asked, not kept: a cross-validation fold's rows
+        are a tenth of a long span's samples, and ten folds are held at once."""
         if self.bounds is None:
             return np.ones(self.t.size if self.full else int(np.count_nonzero(self.mask)))
         lengths = np.diff(np.append(self.bounds, self.t.size)).astype(np.float64)
         return lengths[self.keep] / np.sqrt(self.counts)
 
     def design_rows(self, p: Mapping[str, float]) -> np.ndarray:
-        """The criterion rows of the design at ``p`` (:meth:`columns`, :meth:`reduce`)."""
-        return self.reduce(self.columns(p))
+        """The criterion rows of the design at ``p``: :meth:`reduce` of :meth:`columns`,
+        the columns made and reduced one at a time (:meth:`rows_of`)."""
+        return self.rows_of(p, [self])[0]
+
+    def rows_of(self, p: Mapping[str, float], problems: Sequence[Problem]
+                ) -> list[np.ndarray]:
+        """The design rows at ``p`` of each of ``problems`` (this span and model with other
+        masks: cross-validation folds). The span columns are made one at a time
+        (:meth:`each_column`) and each is reduced for every problem before the next is
+        made, so one span-long column is alive at a time where :meth:`columns` holds the
+        design's two to six (80 MB each at 10 M samples); the same rows as :meth:`reduce`
+        of :meth:`columns`."""
+        n_forced = 1 + len(self.linear)
+        rows: list[list[np.ndarray]] = [[] for _ in problems]
+        for x in self.each_column(p):
+            for f, r in zip(problems, rows, strict=True):
+                v = f.rows(x)  # (every sample a row: the column itself, which the next
+                r.append(v.copy() if v is x else v)  # may be made in)
+            x = v = None  # not alive while the next column is made
+        return [np.column_stack([*r[:n_forced], f.offset_rows, *r[n_forced:]])
+                for f, r in zip(problems, rows, strict=True)]
 
     def reduce(self, cols: Columns) -> np.ndarray:
         """The design rows of the span columns ``cols``, reduced a column at a time (the
@@ -165,12 +184,6 @@ class Problem:
     def nuisance_rows(self, cols: Columns) -> np.ndarray:
         """The rows of the nuisance columns (the offset, then ``cols.nuisance``)."""
         return np.column_stack([self.offset_rows, *(self.rows(x) for x in cols.nuisance)])
-
-    def forced(self, p: Mapping[str, float]) -> np.ndarray:
-        """The unit-gain forced response over the span."""
-        return basis.forced_response(self.structure, dict(p),
-                                     self.t_rel if self.dt is None else self.t, self.u,
-                                     self.dt, u0=self.u_ref)
 
     def columns(self, p: Mapping[str, float]) -> Columns:
         """The span columns of the linear solve at ``p``: the forced response (with
@@ -186,15 +199,46 @@ class Problem:
             xs.append(np.subtract(x, x0, out=x))
         return Columns([x0, *xs], self.nuisance(base))
 
+    def each_column(self, p: Mapping[str, float]) -> Iterator[np.ndarray]:
+        """:meth:`columns`' columns in their order (forced, then nuisance), made one at a
+        time: a column is not to be used once the next is asked for (the change per unit
+        of the last linear parameter is made in the array of the forced response at 0,
+        :func:`pipeline.basis.forced_response`'s ``minus``)."""
+        if not self.linear:
+            yield self.forced(p)
+            yield from self.each_nuisance(p)
+            return
+        base = {**p, **dict.fromkeys(self.linear, 0.0)}
+        x0 = self.forced(base)
+        yield x0
+        for k, n in enumerate(self.linear):
+            if k < len(self.linear) - 1:
+                x = self.forced({**base, n: 1.0})
+                yield np.subtract(x, x0, out=x)
+                del x
+            else:
+                yield self.forced({**base, n: 1.0}, minus=x0)
+        del x0
+        yield from self.each_nuisance(base)
+
+    def forced(self, p: Mapping[str, float], minus: np.ndarray | None = None
+               ) -> np.ndarray:
+        """The unit-gain forced response over the span (less ``minus``, in its array)."""
+        return basis.forced_response(self.structure, dict(p),
+                                     self.t_rel if self.dt is None else self.t, self.u,
+                                     self.dt, u0=self.u_ref, minus=minus)
+
     def nuisance(self, p: Mapping[str, float]) -> list[np.ndarray]:
         """The span's nuisance columns other than the offset: an integrating structure's
         input balance (lagged with an estimated state, a ramp on a steady one), and the
         free-response columns of an estimated state."""
-        cols = []
+        return list(self.each_nuisance(p))
+
+    def each_nuisance(self, p: Mapping[str, float]) -> Iterator[np.ndarray]:
+        """:meth:`nuisance`'s columns one at a time."""
         if self.balance:
-            cols.append(basis.offset_response(self.structure, dict(p), self.t_rel)
-                        if self.estimate_state else self.t_rel)
+            yield (basis.offset_response(self.structure, dict(p), self.t_rel)
+                   if self.estimate_state else self.t_rel)
         if self.estimate_state:
-            cols.extend(basis.free_columns(self.structure, dict(p), self.t_rel,
-                                           self.horizon, self.free_lags))
-        return cols
+            yield from basis.each_free_column(self.structure, dict(p), self.t_rel,
+                                              self.horizon, self.free_lags)

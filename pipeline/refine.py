@@ -340,10 +340,10 @@ def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
 
     def prof(z):
         q = {**p, **space.from_z(z)}
-        cols = prob.columns(q)
-        qb = project_out(prob.nuisance_rows(cols))
-        xr = prob.rows(cols.forced[0])
-        del cols
+        rows = prob.design_rows(q)  # the forced column's rows, then the nuisance's
+        qb = project_out(np.ascontiguousarray(rows[:, 1:]))
+        xr = np.ascontiguousarray(rows[:, 0])
+        del rows
         r = prob.y - K * xr
         return r - qb @ (qb.T @ r), xr, qb
 

@@ -76,6 +76,11 @@ def test_forced_response_in_chunks_is_the_one_filter(structure, params, monkeypa
     monkeypatch.setattr(basis, "CHUNK", 999)  # the chunked path from 999 samples on
     got = basis.forced_response(structure, p, t, u, 0.1, u0=5.0)
     assert got.tobytes() == whole.tobytes()
+    # less another response, in that response's array: the same as the subtraction
+    other = basis.forced_response(structure, {**p, "delay": 0.05}, t, u, 0.1, u0=5.0)
+    want = np.subtract(whole, other)
+    got = basis.forced_response(structure, p, t, u, 0.1, u0=5.0, minus=other)
+    assert got is other and got.tobytes() == want.tobytes()
 
 
 @pytest.mark.parametrize("params", [{"T": 0.8, "n": 3.0, "delay": 0.25},
@@ -151,13 +156,18 @@ def test_step_gain_columns_are_made_when_needed_and_dropped_when_settled(monkeyp
 
 @pytest.mark.parametrize("structure, state", [
     ("first_order", "rest"), ("two_lags", "estimated"), ("integrator_lag", "estimated"),
-    ("integrator_lag", "steady"), ("lead_lag", "rest")])
-def test_a_refinement_design_kept_as_columns_is_the_stacked_one(structure, state):
+    ("integrator_lag", "steady"), ("lead_lag", "rest"), ("zero_two_lags", "estimated")])
+@pytest.mark.parametrize("chunk", [999, problem.CHUNK])
+def test_a_refinement_design_kept_as_columns_is_the_stacked_one(structure, state, chunk,
+                                                                monkeypatch):
     """A refinement over a long span keeps its design as columns (issue 14 item 6):
     reduced to criterion rows a column at a time they are the stacked design's rows to
-    the bit; multiplied out a chunk of samples at a time, its product. The span's times
-    and input are the caller's arrays, and the time since the span start is made only
-    for the columns that need it."""
+    the bit, also when each column is made and reduced before the next (``design_rows``,
+    ``rows_of`` for several masks: the change per unit of a linear parameter made in the
+    array of the response at 0, chunk by chunk on a long span); multiplied out a chunk of
+    samples at a time, its product. The span's times and input are the caller's arrays,
+    and the time since the span start is made only for the columns that need it."""
+    monkeypatch.setattr(basis, "CHUNK", chunk)  # below the span: the chunked filter
     rng = np.random.default_rng(12)
     n, dt, u_ref = 12_000, 0.1, 4.0
     t = 100.0 + np.arange(n) * dt
@@ -189,6 +199,12 @@ def test_a_refinement_design_kept_as_columns_is_the_stacked_one(structure, state
             nuis.extend(basis.free_basis(structure, q, t_rel, prob.horizon).T)
         stacked = np.column_stack([x0, *xs, *nuis])
         assert prob.reduce(cols).tobytes() == prob.rows(stacked).tobytes()
+        assert prob.design_rows(p).tobytes() == prob.rows(stacked).tobytes()
+        # folds of the span (one with every sample a row: its rows are the column itself)
+        others = [prob.with_mask(np.ones(n, bool), y, n), prob.with_mask(~mask, y, 500),
+                  prob.with_mask(mask, y, max_rows, keep_mask=False)]
+        for f, got in zip(others, prob.rows_of(p, others), strict=True):
+            assert got.tobytes() == f.rows(stacked).tobytes()
         c = rng.normal(size=stacked.shape[1])
         whole = (stacked @ c)[mask]
         for chunk in (1024, 4096, n):  # each row by the same coefficients (the same bits
