@@ -47,9 +47,10 @@ def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
     del du, dy
     keep = None if every else moving
     del moving
-    rx = _change_ranks(record.u, keep)
-    ry = _change_ranks(record.y, keep)
+    rx = _change_ranks(record.u, keep, doubled=True)  # (integers: half the memory while
+    ry = _change_ranks(record.y, keep)  # the output's are made)
     del keep
+    rx = centred(rx / 2.0)
     rho = rank_correlation(rx, ry)
     if not rho * sign < -CLOSED_LOOP_CORR:
         return None
@@ -62,9 +63,11 @@ def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
         {"correlation": rho, "samples": samples})
 
 
-def _change_ranks(v: np.ndarray, keep: np.ndarray | None) -> np.ndarray:
+def _change_ranks(v: np.ndarray, keep: np.ndarray | None, doubled: bool = False
+                  ) -> np.ndarray:
     """The centred average ranks of ``v``'s sample-to-sample changes (at ``keep``: all
-    where None), the changes dropped once sorted and the order narrowed after: at 10 M
+    where None; ``doubled``: twice the ranks, not centred, :func:`pipeline.ranks.
+    ranks_of`), the changes dropped once sorted and the order narrowed after: at 10 M
     samples the other series' ranks, these changes and their order (80 MB each) are the
     check's peak."""
     d = np.diff(v)
@@ -73,4 +76,5 @@ def _change_ranks(v: np.ndarray, keep: np.ndarray | None) -> np.ndarray:
     order, new = sort_groups(d)
     del d
     order = narrowed(order)
-    return centred(ranks_of(order, new))
+    ranks = ranks_of(order, new, doubled)
+    return ranks if doubled else centred(ranks)

@@ -38,6 +38,11 @@ def test_ranks_in_chunks_are_the_average_ranks(chunk, monkeypatch):
               np.zeros(50), np.repeat(rng.normal(size=40), 300), np.arange(1.0)):
         got = ranks.average_ranks(x)
         assert np.array_equal(got, rankdata(x, method="average"))
+        # twice the ranks as integers (half the memory with a 32-bit order): halved, the
+        # same ranks to the bit
+        order, new = ranks.sort_groups(x)
+        twice = ranks.ranks_of(ranks.narrowed(order), new, doubled=True)
+        assert twice.dtype == np.int32 and (twice / 2.0).tobytes() == got.tobytes()
     x, y = rng.normal(size=5000), np.round(rng.normal(size=5000), 1)
     monkeypatch.setattr(ranks, "CHUNK", 1 << 20)
     whole = ranks.spearman(x, y)
