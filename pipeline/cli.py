@@ -197,8 +197,7 @@ def identify(
 ) -> None:
     """Identify models from one log and print them ranked (or as JSON)."""
     from .analysis import AnalysisOptions
-    from .results import results_json
-    from .run import identify_file
+    from .run import identify_file, identify_json
 
     if ctx.args:
         raise UserError(f"unexpected argument {ctx.args[0]!r}: give several methods or events "
@@ -206,13 +205,10 @@ def identify(
                         "the option (--method first_order --method smith)")
     options = AnalysisOptions(events=_events_arg(events), methods=_methods_arg(method),
                               consistency=consistency)
-    run_ = identify_file(file, data, options, out_dir=out_dir)
     if as_json:
-        doc = run_.to_doc()
-        del run_  # the record's arrays and the fits: not alive while the text is made
-        # (at 10 M samples and 2000 events the text and its making are 1.4x the arrays)
-        sys.stdout.write(results_json(doc))
+        sys.stdout.write(identify_json(file, data, options, out_dir=out_dir))
         return
+    run_ = identify_file(file, data, options, out_dir=out_dir)
     _print_ranking(run_.records[0])
     if out_dir is not None:
         out.print(f"reports written to {out_dir}/ (report.html, report.md, results.json)")

@@ -161,9 +161,11 @@ class Problem:
         """The design rows at ``p`` of each of ``problems`` (this span and model with other
         masks: cross-validation folds). The span columns are made one at a time
         (:meth:`each_column`) and each is reduced for every problem before the next is
-        made, so one span-long column is alive at a time where :meth:`columns` holds the
-        design's two to six (80 MB each at 10 M samples); the same rows as :meth:`reduce`
-        of :meth:`columns`."""
+        made, where :meth:`columns` holds the design's two to six (80 MB each at 10 M
+        samples): on a long span with blocks of rows, one column at a time beside the
+        free responses' common term of an estimated state (a problem whose every sample
+        is a row keeps a copy of each column: a short span); the same rows as
+        :meth:`reduce` of :meth:`columns`."""
         n_forced = 1 + len(self.linear)
         rows: list[list[np.ndarray]] = [[] for _ in problems]
         for x in self.each_column(p):

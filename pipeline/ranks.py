@@ -33,7 +33,9 @@ def sort_groups(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     caller can drop ``x`` before the ranks are made (and then narrow the order,
     :func:`narrowed`). The order within a group of ties is numpy's default sort's (not a
     stable one's, which took a buffer of half the order and twice the time): every
-    position of a group gets the group's average rank, whatever their order."""
+    position of a group gets the group's average rank, whatever their order. ``x``
+    holds no NaN (the callers check, :func:`has_nan`): each NaN would be a group of its
+    own, ranked in the sort's order."""
     n = x.size
     order = np.argsort(x)
     new = np.empty(n, bool)
