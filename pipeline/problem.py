@@ -83,6 +83,7 @@ class Problem:
     linear: tuple[str, ...] = ()  # LINEAR_PARAMS solved inside the residual (the search)
     bounds: np.ndarray | None = None  # reduceat boundaries in the span (None: no blocks)
     keep: np.ndarray | None = None  # which of the reduced blocks are rows
+    offset: np.ndarray | None = None  # offset_rows, kept (None: made when asked)
 
     @classmethod
     def of(cls, t, u, y, structure: str, *, u_ref: float, mask: np.ndarray,
@@ -115,8 +116,10 @@ class Problem:
             bounds, keep = bounds.astype(np.int32), keep.astype(np.int32)  # keeps: the
             # same sums (numpy.add.reduceat takes the indices as positions either way)
         prob = replace(self, mask=mask if keep_mask or bounds is None else None,
-                       counts=counts, full=bool(mask.all()), bounds=bounds, keep=keep)
-        return replace(prob, y=prob.rows(np.asarray(y, np.float64)))
+                       counts=counts, full=bool(mask.all()), bounds=bounds, keep=keep,
+                       offset=None)
+        return replace(prob, y=prob.rows(np.asarray(y, np.float64)),
+                       offset=prob.offset_rows if keep_mask else None)
 
     @property
     def estimate_state(self) -> bool:
@@ -144,8 +147,11 @@ class Problem:
     def offset_rows(self) -> np.ndarray:
         """The rows of the offset column (all ones), which no parameter changes:
         :meth:`rows` of it without a span-long column of ones (a block's sum of ones is
-        its length, exactly). Made when asked, not kept: a cross-validation fold's rows
-        are a tenth of a long span's samples, and ten folds are held at once."""
+        its length, exactly). Kept by a problem that keeps its mask (a search evaluates
+        it thousands of times), made when asked by one that does not: a cross-validation
+        fold's rows are a tenth of a long span's samples, and ten folds are held at once."""
+        if self.offset is not None:
+            return self.offset
         if self.bounds is None:
             return np.ones(self.t.size if self.full else int(np.count_nonzero(self.mask)))
         lengths = np.diff(np.append(self.bounds, self.t.size)).astype(np.float64)
