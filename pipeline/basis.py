@@ -228,20 +228,13 @@ def free_basis(structure: str, p: dict[str, float], t_rel: np.ndarray, horizon: 
     """Columns ``S(t' + tau_j) - S(t')`` (``t' = t_rel >= 0``, time since the window start)
     for ``tau_j`` geometrically spread from a quarter to four times the model's time scale
     (the dead time added; ``horizon`` when the time scale is not finite or zero)."""
-    return np.column_stack(free_columns(structure, p, t_rel, horizon, n_max))
-
-
-def free_columns(structure: str, p: dict[str, float], t_rel: np.ndarray, horizon: float,
-                 n_max: int = 3) -> list[np.ndarray]:
-    """:func:`free_basis`' columns as separate arrays (a span-long design is reduced a
-    column at a time, :class:`pipeline.problem.Columns`)."""
-    return list(each_free_column(structure, p, t_rel, horizon, n_max))
+    return np.column_stack(list(each_free_column(structure, p, t_rel, horizon, n_max)))
 
 
 def each_free_column(structure: str, p: dict[str, float], t_rel: np.ndarray,
                      horizon: float, n_max: int = 3):
-    """:func:`free_columns` one at a time (a span-long design's rows are made a column at
-    a time, :meth:`pipeline.problem.Problem.rows_of`)."""
+    """:func:`free_basis`' columns one at a time (a span-long design's rows are made a
+    column at a time, :meth:`pipeline.problem.Problem.rows_of`)."""
     spec = STRUCTURES[structure]
     q = {**p, "K": 1.0}
     m = basis_lags(spec, q, n_max)

@@ -186,32 +186,23 @@ class Problem:
         """The design rows of the span columns ``cols``, reduced a column at a time (the
         same sums as of the stacked design's rows; the columns do not depend on the mask,
         so problems that differ only in it share them)."""
-        return np.column_stack([*(self.rows(x) for x in cols.forced),
-                                self.nuisance_rows(cols)])
-
-    def nuisance_rows(self, cols: Columns) -> np.ndarray:
-        """The rows of the nuisance columns (the offset, then ``cols.nuisance``)."""
-        return np.column_stack([self.offset_rows, *(self.rows(x) for x in cols.nuisance)])
+        return np.column_stack([*(self.rows(x) for x in cols.forced), self.offset_rows,
+                                *(self.rows(x) for x in cols.nuisance)])
 
     def columns(self, p: Mapping[str, float]) -> Columns:
         """The span columns of the linear solve at ``p``: the forced response (with
         ``linear``: at 0 and the change per unit of each, the nuisance columns at 0
-        too), then :meth:`nuisance`."""
-        if not self.linear:
-            return Columns([self.forced(p)], self.nuisance(p))
-        base = {**p, **dict.fromkeys(self.linear, 0.0)}
-        x0 = self.forced(base)
-        xs = []
-        for n in self.linear:  # the change per unit, made in the response's own array
-            x = self.forced({**base, n: 1.0})
-            xs.append(np.subtract(x, x0, out=x))
-        return Columns([x0, *xs], self.nuisance(base))
+        too), then :meth:`each_nuisance`'s; all held at once (:meth:`each_column`'s, each
+        in an array of its own)."""
+        cols = list(self.each_column(p, in_place=False))
+        return Columns(cols[: 1 + len(self.linear)], cols[1 + len(self.linear):])
 
-    def each_column(self, p: Mapping[str, float]) -> Iterator[np.ndarray]:
+    def each_column(self, p: Mapping[str, float], in_place: bool = True
+                    ) -> Iterator[np.ndarray]:
         """:meth:`columns`' columns in their order (forced, then nuisance), made one at a
-        time: a column is not to be used once the next is asked for (the change per unit
-        of the last linear parameter is made in the array of the forced response at 0,
-        :func:`pipeline.basis.forced_response`'s ``minus``)."""
+        time. With ``in_place`` a column is not to be used once the next is asked for:
+        the change per unit of the last linear parameter is made in the array of the
+        forced response at 0 (:func:`pipeline.basis.forced_response`'s ``minus``)."""
         if not self.linear:
             yield self.forced(p)
             yield from self.each_nuisance(p)
@@ -220,12 +211,12 @@ class Problem:
         x0 = self.forced(base)
         yield x0
         for k, n in enumerate(self.linear):
-            if k < len(self.linear) - 1:
+            if in_place and k == len(self.linear) - 1:
+                yield self.forced({**base, n: 1.0}, minus=x0)
+            else:  # the change per unit, made in the response's own array
                 x = self.forced({**base, n: 1.0})
                 yield np.subtract(x, x0, out=x)
                 del x
-            else:
-                yield self.forced({**base, n: 1.0}, minus=x0)
         del x0
         yield from self.each_nuisance(base)
 
@@ -236,14 +227,10 @@ class Problem:
                                      self.t_rel if self.dt is None else self.t, self.u,
                                      self.dt, u0=self.u_ref, minus=minus)
 
-    def nuisance(self, p: Mapping[str, float]) -> list[np.ndarray]:
-        """The span's nuisance columns other than the offset: an integrating structure's
-        input balance (lagged with an estimated state, a ramp on a steady one), and the
-        free-response columns of an estimated state."""
-        return list(self.each_nuisance(p))
-
     def each_nuisance(self, p: Mapping[str, float]) -> Iterator[np.ndarray]:
-        """:meth:`nuisance`'s columns one at a time."""
+        """The span's nuisance columns other than the offset, one at a time: an
+        integrating structure's input balance (lagged with an estimated state, a ramp on
+        a steady one), and the free-response columns of an estimated state."""
         if self.balance:
             yield (basis.offset_response(self.structure, dict(p), self.t_rel)
                    if self.estimate_state else self.t_rel)
