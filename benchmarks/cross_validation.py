@@ -5,8 +5,8 @@
 
 On the scale benchmark's staircase log (:func:`scale.write_log`, kept in the temporary
 folder or ``--keep``), for each refinement structure: the joint fit over every event
-(:func:`pipeline.joint.refine_span`), then :func:`pipeline.joint.cross_validate` (the
-folds stepped from the joint optimum where they converge, :mod:`pipeline.left_out`)
+(:func:`pipeline.refine.joint.refine_span`), then :func:`pipeline.refine.joint.cross_validate` (the
+folds stepped from the joint optimum where they converge, :mod:`pipeline.refine.left_out`)
 timed against exact refits of the same folds (``refine_span(..., exclude=fold)``,
 polishing the joint model, the fallback's options), with the pooled held-out MSE of
 each, the folds stepped, and the worst ratio of a stepped fold's criterion to the exact
@@ -30,13 +30,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import scale  # noqa: E402
 
 import pipeline  # noqa: E402
-from pipeline import joint  # noqa: E402
 from pipeline.analysis import AnalysisOptions, _event_fits  # noqa: E402
-from pipeline.lstsq import solve  # noqa: E402
 from pipeline.methods import REGISTRY  # noqa: E402
-from pipeline.problem import Problem  # noqa: E402
-from pipeline.refine_record import event_states, structure_state  # noqa: E402
-from pipeline.segmentation import segment  # noqa: E402
+from pipeline.refine import joint  # noqa: E402
+from pipeline.refine.event import event_states, structure_state  # noqa: E402
+from pipeline.refine.lstsq import solve  # noqa: E402
+from pipeline.refine.problem import Problem  # noqa: E402
+from pipeline.segmentation.detect import segment  # noqa: E402
 from pipeline.validate import heldout_residuals  # noqa: E402
 
 STRUCTURES = ("first_order", "second_order", "two_lags", "n_lags", "zero_two_lags",

@@ -7,7 +7,7 @@ its CPU is the filtering of the model simulations alone.
 Every least-squares search, interval, cross-validation fold and held-out score of the
 command simulates its model, and on a uniform grid a model of order 2 or less (every
 structure but the long and non-integer equal-lag chains) by ``scipy.signal.lfilter``
-(:mod:`pipeline.basis`: the exact ZOH recursion). That filtering is part of the
+(:mod:`pipeline.simulation.regressors`: the exact ZOH recursion). That filtering is part of the
 arithmetic of the searches the command runs: any implementation of the same searches,
 with no Python overhead at all, does at least it, and the number of simulations is set
 by the searches (their starts, iterations, finite-difference Jacobians), so it cannot
@@ -74,7 +74,7 @@ def main() -> None:
     import numpy as np
     from scipy import signal
 
-    from pipeline.cli import app
+    from pipeline.cli.commands import app
 
     filters: dict[str, list[float]] = collections.defaultdict(lambda: [0, 0.0])
     lfilter = signal.lfilter
@@ -88,7 +88,7 @@ def main() -> None:
         f[1] += dt
         return out
 
-    signal.lfilter = timed  # pipeline.basis calls it as signal.lfilter: this one
+    signal.lfilter = timed  # pipeline.simulation.regressors calls it as signal.lfilter: this one
     cpu = time.process_time()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):
         app(["identify", str(a.log), "--input", a.input, "--output", a.output, "--time",

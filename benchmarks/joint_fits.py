@@ -8,8 +8,8 @@ cross-validation, CPU, folds refitted exactly, and the parameters it found.
 plant is first order, K 2, T an eighth of a window, dead time 3 samples); ``--rows`` reads
 its first N rows only. The events are segmented, the graphical methods run on event 0
 (their models are the joint fits' starts, as in :func:`pipeline.analyse` with every event
-identifying), then :func:`pipeline.joint.span_fit` with cross-validation runs for each
-structure. ``--rows-per-event`` sets :data:`pipeline.joint.ROWS_PER_EVENT` (0: the 600
+identifying), then :func:`pipeline.refine.span_fit` with cross-validation runs for each
+structure. ``--rows-per-event`` sets :data:`pipeline.refine.joint.ROWS_PER_EVENT` (0: the 600
 rows of a one-event fit, the behaviour before it existed) to compare in one run.
 """
 
@@ -33,12 +33,12 @@ def main() -> None:
 
     import polars as pl
 
-    import pipeline.joint as joint
+    import pipeline.refine.joint as joint
     from pipeline.analysis import AnalysisOptions, _event_fits
     from pipeline.methods import REGISTRY
     from pipeline.record import make_record
-    from pipeline.refine_record import event_states
-    from pipeline.segmentation import segment
+    from pipeline.refine.event import event_states
+    from pipeline.segmentation.detect import segment
 
     if a.rows_per_event is not None:
         joint.ROWS_PER_EVENT = a.rows_per_event

@@ -1,8 +1,8 @@
 """The two steps where `pipeline identify LOG --method all --events all` peaked at 10 M samples
 (issue 14 item 6), each run on its own on a long log and measured against the resident set
 at its entry: the cross-validation's Gauss-Newton folds of every joint fit
-(:func:`pipeline.joint._stepped_folds`) and the closed-loop check
-(:func:`pipeline.closed_loop.closed_loop_flag`).
+(:func:`pipeline.refine.joint._stepped_folds`) and the closed-loop check
+(:func:`pipeline.grading.closed_loop.closed_loop_flag`).
 
     python benchmarks/memory_hotspots.py LOG.csv RESULTS.json [--structures a,b]
 
@@ -12,7 +12,7 @@ time --method all --events all --json`` on it, whose joint fits give the models 
 step from (so the whole analysis, 25 minutes at 10 M on the 2-vCPU host, is not run
 again for each measurement). A thread reads the resident set (``/proc/self/statm``)
 every millisecond; the command line's allocator settings are made as it makes them
-(:mod:`pipeline.heap`), and freed heap is returned before each step. Figures are MB
+(:mod:`pipeline.memory`), and freed heap is returned before each step. Figures are MB
 (10^6 bytes) over the step's entry and that against the raw ``t, u, y`` arrays
 (``3 x 8 x samples`` bytes). Linux only (``/proc``).
 """
@@ -62,16 +62,16 @@ def main() -> None:
     ap.add_argument("results", type=Path)
     ap.add_argument("--structures", default="", help="only these joint fits: a,b")
     a = ap.parse_args()
-    from pipeline.heap import large_arrays_mapped, polars_returns_freed_pages, release
+    from pipeline.memory import large_arrays_mapped, polars_returns_freed_pages, release
 
     polars_returns_freed_pages()  # as the command line does, before polars is imported
     large_arrays_mapped()
     import pipeline
-    from pipeline import joint
-    from pipeline.closed_loop import closed_loop_flag
+    from pipeline.grading.closed_loop import closed_loop_flag
     from pipeline.models import ProcessModel
-    from pipeline.refine import RefineOptions
-    from pipeline.refine_record import event_states
+    from pipeline.refine import joint
+    from pipeline.refine.event import event_states
+    from pipeline.refine.refinement import RefineOptions
 
     rec = pipeline.load(a.log, input="u", output="y", time="time")
     events = pipeline.segment(rec)

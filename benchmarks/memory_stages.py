@@ -16,7 +16,7 @@ keeps a function that just returned alive with its locals, so those peaks run hi
 ``tracemalloc`` does not see the C allocators' retention (glibc's freed heap, polars'
 jemalloc pages), which is part of what the process holds, so the resident set is what is
 measured. The command line's allocator settings are made as it makes them
-(:mod:`pipeline.heap`).
+(:mod:`pipeline.memory`).
 
 With ``--traced`` the analysis runs under ``tracemalloc`` instead (several times slower),
 and each step's peak is of the memory Python and numpy hold (the loaded record excluded:
@@ -46,12 +46,13 @@ sys.path.insert(0, str(ROOT))
 #: The analysis steps timed on their own: (module, function) as the analysis calls them.
 STEPS = [("pipeline.analysis", "segment"), ("pipeline.analysis", "event_states"),
          ("pipeline.analysis", "_event_fits"), ("pipeline.analysis", "_with_information_criteria"),
-         ("pipeline.analysis", "recommend"), ("pipeline.consistency", "event_estimates"),
-         ("pipeline.consistency", "step_gains"), ("pipeline.analysis", "grade"),
-         ("pipeline.grade", "closed_loop_flag"), ("pipeline.grade", "fit_flags"),
+         ("pipeline.analysis", "recommend"), ("pipeline.grading.consistency", "event_estimates"),
+         ("pipeline.grading.consistency", "step_gains"), ("pipeline.analysis", "grade"),
+         ("pipeline.grading.verdicts", "closed_loop_flag"),
+         ("pipeline.grading.verdicts", "fit_flags"),
          ("pipeline.analysis", "_joint_fits"), ("pipeline.analysis", "_held_out"),
-         ("pipeline.joint", "refine_span"), ("pipeline.joint", "cross_validate"),
-         ("pipeline.joint", "_stepped_folds"), ("pipeline.refine", "_finish")]
+         ("pipeline.refine.joint", "refine_span"), ("pipeline.refine.joint", "cross_validate"),
+         ("pipeline.refine.joint", "_stepped_folds"), ("pipeline.refine", "_finish")]
 PAGE = os.sysconf("SC_PAGE_SIZE")
 
 
@@ -129,7 +130,7 @@ def main() -> None:
     import importlib
 
     import pipeline
-    from pipeline.heap import large_arrays_mapped, polars_returns_freed_pages
+    from pipeline.memory import large_arrays_mapped, polars_returns_freed_pages
 
     polars_returns_freed_pages()  # as the command line does, before polars is imported
     large_arrays_mapped()

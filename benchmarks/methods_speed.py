@@ -17,7 +17,7 @@ fitted parameter between the two versions (the results must not change).
 
     python benchmarks/methods_speed.py --crossover
 
-prints the crossover of :func:`pipeline.savgol.savgol` (overlap-add FFT) against
+prints the crossover of :func:`pipeline.signal.savgol` (overlap-add FFT) against
 ``scipy.signal.savgol_filter`` (direct convolution) by window length, interleaved, and
 their largest difference (the reason for ``SAVGOL_FFT_TAPS``).
 """
@@ -44,7 +44,7 @@ def event(n: int):
     """The plant's step event with ``n`` samples after t0."""
     from pipeline.events import EventData
     from pipeline.models import ProcessModel
-    from pipeline.segmentation import segment
+    from pipeline.segmentation.detect import segment
     from pipeline.synth import step_record
 
     truth = ProcessModel("two_lags", {"K": 1.5, "T1": 10.0, "T2": 3.0, "delay": 1.0})
@@ -150,7 +150,7 @@ def crossover(reps: int) -> None:
     import numpy as np
     from scipy.signal import oaconvolve, savgol_coeffs, savgol_filter
 
-    def oa(h, w):  # the interior of pipeline.savgol.savgol, whatever its threshold
+    def oa(h, w):  # the interior of pipeline.signal.savgol, whatever its threshold
         return oaconvolve(h, savgol_coeffs(w, 2, use="conv"), mode="same")
 
     print(f"`python benchmarks/methods_speed.py --crossover --reps {reps}`\n")

@@ -38,7 +38,7 @@ def worker(reps: int) -> None:
     from pipeline.events import EventData
     from pipeline.methods import identify
     from pipeline.record import make_record
-    from pipeline.segmentation import segment
+    from pipeline.segmentation.detect import segment
 
     n, n_events, dt = 60_000, 11, 0.1
     rng = np.random.default_rng(0)

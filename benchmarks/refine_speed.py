@@ -28,7 +28,7 @@ from pipeline.events import EventData
 from pipeline.methods import REGISTRY, identify, select_methods
 from pipeline.models import ProcessModel
 from pipeline.record import Record
-from pipeline.segmentation import segment
+from pipeline.segmentation.detect import segment
 from pipeline.synth import step_record
 
 PLANTS = {

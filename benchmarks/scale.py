@@ -128,7 +128,7 @@ def worker_write(path: str, n: str, n_events: str) -> None:
 
 def worker_pipeline(path: str, out: str) -> None:
     import pipeline
-    from pipeline.heap import large_arrays_mapped, polars_returns_freed_pages
+    from pipeline.memory import large_arrays_mapped, polars_returns_freed_pages
 
     polars_returns_freed_pages()  # as the command line does, before polars is imported
     large_arrays_mapped()

@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-import pipeline.segmentation as seg
+import pipeline.segmentation.detect as seg
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
-from pipeline.simulation import simulate
+from pipeline.simulation.engine import simulate
 
 #: The commit before issue 14's segmentation (the reference implementation).
 BASE = "6ff9e78"

@@ -34,7 +34,7 @@ from scipy import signal
 
 from pipeline.models import ProcessModel
 from pipeline.record import infer_sample_time
-from pipeline.simulation import simulate
+from pipeline.simulation.engine import simulate
 
 DT = 0.01
 MODELS = {

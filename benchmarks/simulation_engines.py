@@ -5,10 +5,10 @@
 Both build the exact zero-order-hold filter of a rational model of order <= 2 in closed
 form and apply it with ``scipy.signal.lfilter``; they differ in how the filter is made:
 
-* **simulation** (``pipeline.discretise.zoh_filter`` then ``pipeline.simulation.simulate``):
+* **simulation** (``pipeline.simulation.zoh.zoh_filter`` then ``pipeline.simulation.simulate``):
   a whole-sample dead time as a shift, the numerator's DC gain corrected to the model's,
   the filter cached per model and sample time;
-* **basis** (``pipeline.basis.forced_response``, what validation and every refinement
+* **basis** (``pipeline.simulation.forced_response``, what validation and every refinement
   residual used): the filter made on every call, no shift, no DC correction.
 
 Two workloads per structure, on an ``n``-sample step from 0: *new parameters* every call
@@ -42,11 +42,11 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=2000)
     a = ap.parse_args()
     try:  # the engines of main before the move; after it, the one engine twice
-        from pipeline.basis import forced_response
-        from pipeline.simulation import simulate
+        from pipeline.simulation.engine import simulate
+        from pipeline.simulation.regressors import forced_response
         engines = "simulation vs basis"
     except ImportError:
-        from pipeline.simulation import forced_response, simulate
+        from pipeline.simulation.engine import forced_response, simulate
         engines = "one engine (simulate vs forced_response)"
     from pipeline.models import ProcessModel
 

@@ -15,8 +15,8 @@ second order) near the truth for each identification event. Stages, CPU time:
   validation events, simulated continuously with the warm-up correction);
 * **leave-one-out**: one model per structure scored on each identification event alone
   (:func:`pipeline.validate.heldout_residuals` with one event, what
-  :func:`pipeline.joint.cross_validate` does per fold);
-* **consistency**: :func:`pipeline.consistency.step_gains` once per structure (each
+  :func:`pipeline.refine.joint.cross_validate` does per fold);
+* **consistency**: :func:`pipeline.grading.consistency.step_gains` once per structure (each
   step's own gain at shared dynamics).
 
 The floor of each stage: one ``scipy.signal.lfilter`` pass over the whole record per model
@@ -58,9 +58,9 @@ def run_one(n: int, n_events: int, skip_consistency: bool) -> dict:
     """One size with the package on sys.path: CPU seconds of each stage and its floor."""
     from scipy import signal
 
-    from pipeline import consistency
+    from pipeline.grading import consistency
     from pipeline.models import ProcessModel
-    from pipeline.segmentation import SegmentOptions, segment
+    from pipeline.segmentation.detect import SegmentOptions, segment
     from pipeline.validate import heldout_residuals, score
 
     rec = make_record(n, n_events)

@@ -34,7 +34,7 @@ _API = {
     "ProcessModel": "models", "STRUCTURES": "models", "PARAMETERS": "models",
     "simulate": "simulation",
     "identify_event": "api", "REGISTRY": "methods",
-    "RecordResult": "results", "RunResult": "results", "load_results": "results",
+    "RecordResult": "results", "RunResult": "results", "load_results": "gate",
     "UserError": "errors", "ExitCode": "errors",
 }
 

@@ -1,9 +1,9 @@
 """``python -m pipeline`` and the ``pipeline`` command: the command line, in a process that
-is the command's own, so polars' allocator is set up first (:func:`pipeline.heap.
+is the command's own, so polars' allocator is set up first (:func:`pipeline.memory.
 polars_returns_freed_pages`, before anything imports polars; pool workers inherit it), and
-glibc's mmap threshold fixed (:func:`pipeline.heap.large_arrays_mapped`)."""
+glibc's mmap threshold fixed (:func:`pipeline.memory.large_arrays_mapped`)."""
 
-from .heap import large_arrays_mapped, polars_returns_freed_pages
+from .memory import large_arrays_mapped, polars_returns_freed_pages
 
 
 def main() -> None:

@@ -7,32 +7,29 @@ in, a :class:`~pipeline.results.RecordResult` out) and is the only analysis path
 they give the same fits for the same record and options.
 
 Per identification event the graphical methods run first; the refinements
-(``lsq_<structure>``, :mod:`pipeline.refine_record`) start from their models. With several
+(``lsq_<structure>``, :mod:`pipeline.refine.event`) start from their models. With several
 identification events each refinement also runs once over all of them (one model, the
 state carried through the record), and with ``events: all`` leave-one-event-out
 cross-validation gives its held-out error (``mse_cross_validation``; a one-event model's
 is its error on the other events; beyond ten events, ten folds and ten spread events:
-:func:`pipeline.joint.folds_of`, :func:`pipeline.joint.held_out_events`). Every ok fit
+:func:`pipeline.refine.joint.folds_of`, :func:`pipeline.refine.held_out_events`). Every ok fit
 gets an information criterion on its own event (``aic``). With three steps or more every
-step is also identified on its own (:mod:`pipeline.consistency`); grading flags what
-disagrees, and the record gets its recommended model (:func:`pipeline.recommend.recommend`).
+step is also identified on its own (:mod:`pipeline.grading.consistency`); grading flags what
+disagrees, and the record gets its recommended model (:func:`pipeline.grading.recommend`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from . import consistency, heap
+from . import memory as heap
 from .events import EventData
 from .fit import Fit
-from .grade import grade
-from .joint import event_fit, held_out_events, span_fit
-from .methods import REGISTRY, identify, select_methods
+from .grading import grade, information_criteria, per_step, recommend
+from .methods import REGISTRY, event_fit, identify, select_methods
 from .metrics import mse
-from .recommend import information_criteria, recommend
 from .record import Record
-from .refine import RefineOptions
-from .refine_record import event_states
+from .refine import RefineOptions, event_states, held_out_events, span_fit
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
 from .validate import balance_point, heldout_residuals, identification_residuals, score
@@ -49,7 +46,7 @@ class AnalysisOptions:
     ``methods``: "all" (every method for each event's kind) or a list of ids.
     ``refine``: options of the least-squares refinements (starts, bootstrap).
     ``consistency``: identify every step on its own and compare them
-    (:mod:`pipeline.consistency`); None: when there are three steps or more.
+    (:mod:`pipeline.grading.consistency`); None: when there are three steps or more.
     """
 
     segmentation: SegmentOptions = field(default_factory=SegmentOptions)
@@ -94,15 +91,8 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     fits = _with_information_criteria(record, events, fits)
     result = replace(base, roles=roles, fits=fits)
     recommendation = recommend(result)
-    cons = None
-    if consistency.wanted(events, opt.consistency):
-        chosen = result.fit(recommendation.method, recommendation.event,
-                            recommendation.events) if recommendation else None
-        structure = consistency.per_event_structure(chosen.model.structure if chosen else None)
-        reference = chosen.model if chosen and chosen.model.structure == structure else None
-        est = consistency.event_estimates(record, events, states, structure, fits=fits,
-                                          reference=reference, options=opt.refine)
-        cons = consistency.Consistency(tuple(est), consistency.static_map(est))
+    cons = per_step(result, recommendation, states, setting=opt.consistency,
+                    options=opt.refine)
     heap.release()  # the freed windows and columns, before the record-long checks
     graded = grade(replace(result, consistency=cons))
     heap.release()  # and what the checks freed, before the caller's next stage (a report)
@@ -112,7 +102,7 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
 def _event_fits(record: Record, events, i: int, validation: list[int], states: list[str],
                 opt: AnalysisOptions) -> list[Fit]:
     """The graphical methods, then the refinements, on event ``i`` (its state at rest,
-    carried from an earlier event that was, or estimated: :mod:`pipeline.joint`)."""
+    carried from an earlier event that was, or estimated: :mod:`pipeline.refine.joint`)."""
     ev = events[i]
     data = EventData.from_event(record, ev)
     selected = select_methods(opt.methods, ev.kind)
@@ -159,7 +149,8 @@ def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
 
 def _held_out(fit: Fit, record: Record, events, ident: list[int]) -> Fit:
     """With every event identifying: a one-event model's error on the other events (at
-    most :data:`pipeline.joint.MAX_FOLDS` of them, :func:`pipeline.joint.held_out_events`)."""
+    most :data:`pipeline.refine.joint.MAX_FOLDS` of them,
+    :func:`pipeline.refine.held_out_events`)."""
     if not fit.ok or fit.events or "mse_cross_validation" in fit.metrics:
         return fit
     _, e = heldout_residuals(fit.model, record, events, held_out_events(ident, fit.event),

@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from .errors import UserError
 from .files import read_text
-from .io.options import DataConfig, check_section
+from .io import DataConfig, check_section
 from .quoting import quoted
 
 #: At most this many values (after YAML aliases are expanded) in a config: a config holds

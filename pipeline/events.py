@@ -6,8 +6,9 @@ of the record; ``i_base`` is the first sample of the settled stretch before ``t0
 mean is ``y0``.
 
 An :class:`EventData` is the self-contained slice a method works on: the arrays from
-``i_base`` to ``i_end`` and the operating-point values. :func:`pipeline.segmentation.event_data`
-builds one from plain numpy arrays, so every method runs without the CLI.
+``i_base`` to ``i_end`` and the operating-point values.
+:func:`pipeline.segmentation.event_data` builds one from plain numpy arrays, so every
+method runs without the CLI.
 """
 
 from __future__ import annotations

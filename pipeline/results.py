@@ -1,27 +1,25 @@
-"""What an analysis returns, and results.json: written and read in one place.
+"""What an analysis returns, and the results.json text: made and parsed in one place.
 
 :class:`RecordResult` is one record's outcome in memory (the record's arrays, its events,
-every fit); :class:`RunResult` is a run's records and where they came from. Both turn
-into the typed document of :mod:`pipeline.schema` (:meth:`RunResult.to_doc`), which
-:func:`results_json` writes and :func:`load_results` reads back (validated, any
-readable schema version). The report, the regression gate, the history and the JUnit
-writer all take that document.
+every fit, the per-step consistency, the recommendation); :class:`RunResult` is a run's
+records and where they came from. Both turn into the typed document of
+:mod:`pipeline.schema` (:meth:`RunResult.to_doc`), whose text :func:`results_json` makes
+and :func:`parse_results` validates (any readable schema version; the files are written
+by :mod:`pipeline.report` and read by :func:`pipeline.gate.load_results`). The report,
+the regression gate, the history and the JUnit writer all take that document. Pure: no
+file is touched here.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from pydantic import ValidationError
 
-from .consistency import Consistency
 from .errors import UserError
 from .events import Event
-from .files import read_text, write_atomic
 from .fit import Fit, Flag
 from .record import Record
 from .schema import (
@@ -43,8 +41,53 @@ from .version import __version__
 
 
 @dataclass(frozen=True)
+class EventEstimate:
+    """One step identified on its own: gain and dominant time constant with 95 %
+    intervals, where (input/output levels before and after) and when (t0)."""
+
+    index: int
+    t0: float
+    u0: float
+    u1: float
+    y0: float
+    y_inf: float  # the asymptote: y0 + K (u1 - u0)
+    K: float
+    K_ci: tuple[float, float]
+    T: float
+    T_ci: tuple[float, float]
+    state: str = ""  # how the initial state was treated (rest, carried, estimated)
+    K_se: float = math.nan  # the gain's standard error (the tests use it, not the interval)
+
+    @property
+    def up(self) -> bool:
+        return self.u1 > self.u0
+
+
+@dataclass(frozen=True)
+class StaticMap:
+    """Settled output against input level: the levels and the two fits."""
+
+    u: tuple[float, ...]
+    y: tuple[float, ...]
+    line: tuple[float, float]  # (a, b): y = a + b u
+    quadratic: tuple[float, float, float]  # (a, b, c): y = a + b u + c u^2
+    rms_line: float
+    rms_quadratic: float
+    nonlinear: bool
+    p_curvature: float
+
+
+@dataclass(frozen=True)
+class Consistency:
+    """Each step on its own, and what they say together."""
+
+    estimates: tuple[EventEstimate, ...]
+    static_map: StaticMap | None
+
+
+@dataclass(frozen=True)
 class Recommendation:
-    """The record's recommended model: which fit, and why (:func:`pipeline.recommend.
+    """The record's recommended model: which fit, and why (:func:`pipeline.grading.recommendation.
     recommend`; grading adds the verdict). ``events``: all events of a model fitted over
     several (empty for a one-event fit)."""
 
@@ -68,7 +111,7 @@ class RecordResult:
     error: str | None = None
     recommendation: Recommendation | None = None
     flags: tuple[Flag, ...] = ()  # findings about the whole log (grading)
-    consistency: Consistency | None = None  # each step on its own (pipeline.consistency)
+    consistency: Consistency | None = None  # each step on its own (pipeline.grading)
 
     @property
     def ok(self) -> bool:
@@ -259,13 +302,6 @@ def results_json(doc: ResultsDoc) -> str:
     return doc.model_dump_json(indent=1) + "\n"
 
 
-def write_results(path: str | os.PathLike, doc: ResultsDoc) -> Path:
-    """Write ``doc`` to ``path`` atomically."""
-    p = Path(path)
-    write_atomic(p, results_json(doc).encode("utf-8"))
-    return p
-
-
 def parse_results(text: str, where: str = "<results>") -> ResultsDoc:
     """Validate results.json text; a problem is a one-line :class:`UserError`."""
     import json
@@ -300,9 +336,3 @@ def as_doc(doc: ResultsDoc | dict) -> ResultsDoc:
     import json
 
     return parse_results(json.dumps(doc))
-
-
-def load_results(path: str | os.PathLike) -> ResultsDoc:
-    """Read and validate a results.json (or baseline) file."""
-    p = Path(path)
-    return parse_results(read_text(p, "results file"), str(p))

@@ -25,11 +25,9 @@ from .analysis import AnalysisOptions, analyse
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
 from .files import check_writable
-from .io import load_record
-from .io.options import check_file
-from .io.paths import files_named
+from .io import check_file, files_named, load_record
 from .log import logger
-from .report.outdir import check_target
+from .report import check_target
 from .results import RecordResult, RunResult, results_json
 from .segmentation import SegmentOptions
 
@@ -86,7 +84,7 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
     """
     d = cfg.data
     if d.dataset:
-        from .datasets import fetch
+        from .io import fetch
 
         return [RecordSpec(name=d.dataset, path=str(Path(fetch(d.dataset)).absolute()),
                            dataset=d.dataset)]
@@ -130,7 +128,7 @@ def effective_data(cfg: RunConfig, spec: RecordSpec) -> DataConfig:
     d = cfg.data
     if not spec.dataset:
         return d
-    from .datasets import get
+    from .io import get
 
     ds = get(spec.dataset)
     fill = {"format": ds.format, "columns": ds.columns, "input": ds.input, "output": ds.output,
@@ -168,7 +166,7 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
         raise UserError(res.error)
     run = RunResult([res], config=f"identify {path}", created=created or now_iso())
     if out_dir is not None:
-        from .report.build import write_run
+        from .report import write_run
 
         write_run(out_dir, run, run.to_doc(), title=f"Identification of {record.name}")
     return run
@@ -190,7 +188,7 @@ def run_config(config: str | os.PathLike | RunConfig, **options) -> Outcome:
 
     Keywords: ``out_dir``, ``workers``, ``executor``, ``scheduler``, ``baseline``,
     ``junit``, ``history``, ``progress``, ``created`` and ``tolerances`` (a
-    :class:`pipeline.baseline.Tolerances`, defaults when None). Exit codes: 0 done, 1 a
+    :class:`pipeline.gate.Tolerances`, defaults when None). Exit codes: 0 done, 1 a
     regression against ``baseline``, 3 some records failed, 2 all records failed (the
     reports, JUnit file and history row are written all the same). The report folder is
     ``out_dir``, else :meth:`RunConfig.report_folder`; it and the JUnit and history files
@@ -198,7 +196,7 @@ def run_config(config: str | os.PathLike | RunConfig, **options) -> Outcome:
 
     The local process pool and the progress bars live in one :class:`~contextlib.ExitStack`
     around the run: the pool that ran the records draws the report's plots (no second
-    pool), and an exception (SIGTERM included, :mod:`pipeline.interrupt`) ends its workers.
+    pool), and an exception (SIGTERM included, :mod:`pipeline.batch.interrupt`) ends its workers.
     """
     with ExitStack() as stack:
         return _run_config(config, stack, **options)
@@ -210,8 +208,7 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
                 baseline: Path | None = None, junit: Path | None = None,
                 history: Path | None = None, progress: bool | None = None,
                 created: str | None = None, tolerances=None) -> Outcome:
-    from .batch import check_executor, local_pool, parallel_map, run_records
-    from .progress import Stages, show_progress
+    from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
 
     started = time.perf_counter()  # the JUnit file's time
     cfg = config if isinstance(config, RunConfig) else load_config(config)
@@ -227,12 +224,12 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
             check_writable(path, what)
     base_doc = past = None
     if baseline is not None:  # a baseline of another config, records or methods: refused
-        from .baseline_file import load_baseline
+        from .gate import load_baseline
 
         base_doc = load_baseline(baseline, config=cfg.source, records=[s.name for s in specs],
                                  methods=cfg.methods)
     if history is not None and Path(history).exists():
-        from .history import load_history
+        from .gate import load_history
 
         past = load_history(history)
     pool = stack.enter_context(local_pool(workers if executor == "local" else 1, len(specs),
@@ -244,14 +241,14 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     # every record failing still writes the reports, the JUnit file and the history (CI
     # sees the failures), and exits 2
     doc = run.to_doc()
-    from .report.build import Extras, write_run
+    from .report import Extras, write_run
 
     extras = Extras()
     messages: list[str] = []
     comparison = None
     if base_doc is not None:
-        from .baseline import Tolerances, compare
-        from .report.regressions import gate_lines
+        from .gate import Tolerances, compare
+        from .report import gate_lines
 
         comparison = compare(doc, base_doc, tolerances or Tolerances())
         extras.comparison = comparison
@@ -260,8 +257,8 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     if history is not None:
         import polars as pl
 
-        from .history import history_rows
-        from .report.history_plots import baseline_reference, history_figures
+        from .gate import history_rows
+        from .report import baseline_reference, history_figures
 
         stages.step("history plots")
         rows = history_rows(doc, run_time)  # the file is appended after the report
@@ -273,12 +270,12 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     stages.step("report sections", total=len(records))
     def finish() -> None:  # after the report: --history/--junit may point into the folder
         if history is not None:
-            from .history import append_history
+            from .gate import append_history
 
             stages.step("history")
             append_history(history, doc, run_time)
         if junit is not None:
-            from .report.junit import write_junit
+            from .report import write_junit
 
             stages.step("JUnit")
             write_junit(junit, doc, comparison, time=time.perf_counter() - started)
@@ -289,7 +286,7 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
                   html=cfg.report.html, plots_mode=cfg.report.plots,
                   mapper=stages.counting(mapper), then=finish)
     n_ok = len(records) - len(run.failures)
-    from .grade import record_verdict
+    from .grading import record_verdict
 
     verdicts = [record_verdict(r) for r in records if r.ok]
     counts = ", ".join(f"{verdicts.count(v)} {v}" for v in ("ok", "warning", "unreliable"))

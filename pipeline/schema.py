@@ -158,7 +158,7 @@ class RecommendedDoc(_Doc):
 class EstimateDoc(_Doc):
     """One step identified on its own: its gain at the recommended dynamics and its own
     dominant time constant, with 95 % intervals, its input levels and the output's
-    asymptotes (:mod:`pipeline.consistency`)."""
+    asymptotes (:mod:`pipeline.grading.consistency`)."""
 
     event: int
     t0: float

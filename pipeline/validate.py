@@ -32,20 +32,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .basis import forced_response
-from .discretise import memory
 from .events import Event
 from .metrics import fit_percent_of_errors, ise, mse
 from .models import ProcessModel
 from .record import Record
+from .simulation import forced_response, memory
 from .uncertainty import variance_factor
 
 
 def simulate(model: ProcessModel, record: Record, sl: slice, u0: float, y0: float
              ) -> np.ndarray:
     """The model from rest at ``(u0, y0)`` over the samples ``sl`` of the record
-    (:func:`pipeline.basis.model_response`, with the record's sample time instead of a
-    check of the grid on every call)."""
+    (:func:`pipeline.simulation.regressors.model_response`, with the record's sample time
+    instead of a check of the grid on every call)."""
     t, u = record.t[sl], record.u[sl]
     if t.size < 2:
         return np.full(t.size, float(y0))
@@ -103,7 +102,7 @@ def continuous_simulation(model: ProcessModel, record: Record, events: list[Even
     the steady ramp of its balance point, :func:`ramp_before`).
 
     ``needed``: the first sample the caller reads. A self-regulating model forgets its
-    input after :func:`pipeline.discretise.memory` samples (its pulse response is below
+    input after :func:`pipeline.simulation.memory` samples (its pulse response is below
     1e-17 of its gain), so it is simulated from that many samples before ``needed``
     only, from rest at the same operating point: the samples from ``needed`` on are the
     same to rounding, and a validation run late in a long record costs its own length,

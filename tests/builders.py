@@ -3,7 +3,7 @@
 Every builder simulates a plant exactly (zero-order hold, ``pipeline.synth``) from a
 nonzero operating point, adds noise of a known marginal standard deviation (white, or
 AR(1) with coefficient ``phi``: coloured noise), and segments the arrays like any log
-(:func:`pipeline.segmentation.event_data`), so ``Event.noise`` is what the pipeline itself
+(:func:`pipeline.segmentation.detect.event_data`), so ``Event.noise`` is what the pipeline itself
 estimates. Noise levels are relative: steps to the output change ``K du``, impulses to the
 peak output deviation.
 
@@ -20,7 +20,7 @@ from scipy.signal import lfilter
 
 from pipeline.events import EventData
 from pipeline.models import ProcessModel
-from pipeline.segmentation import event_data
+from pipeline.segmentation.detect import event_data
 from pipeline.synth import JAKOUBEK_LAGS, lag_chain_step, pulse, response, staircase
 
 

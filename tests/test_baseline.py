@@ -11,7 +11,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pipeline.baseline import (
+from pipeline.errors import UserError
+from pipeline.events import EventData
+from pipeline.gate import load_results
+from pipeline.gate.baseline import (
     Comparison,
     Finding,
     Tolerances,
@@ -22,13 +25,11 @@ from pipeline.baseline import (
     step_response_distance,
     time_scale,
 )
-from pipeline.errors import UserError
-from pipeline.events import EventData
 from pipeline.methods import identify
 from pipeline.record import Record
 from pipeline.report.junit import junit_xml, write_junit
-from pipeline.results import as_doc, event_doc, fit_doc, load_results
-from pipeline.segmentation import event_data, segment
+from pipeline.results import as_doc, event_doc, fit_doc
+from pipeline.segmentation.detect import event_data, segment
 from pipeline.synth.logs import LogPlan, log_record, plan_logs
 from pipeline.validate import score
 
@@ -375,7 +376,7 @@ def test_a_joint_fit_and_the_first_events_own_fit_are_different_fits():
     """With events [0, 1] lsq_first_order runs on event 0 alone and on both; the gate and
     the history keep them apart (``lsq_first_order`` and ``lsq_first_order[0,1]``)."""
     from pipeline.analysis import AnalysisOptions, analyse
-    from pipeline.history import history_rows
+    from pipeline.gate.history import history_rows
     from pipeline.results import RunResult
 
     rec = log_record(plan_logs(1, seed=11)[0])

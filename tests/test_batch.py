@@ -6,10 +6,10 @@ import sys
 
 import pytest
 
-from pipeline.batch import crashed, pool_context, resolve_workers, run_records
+from pipeline.batch.pool import crashed, pool_context, resolve_workers, run_records
+from pipeline.batch.progress import is_failure
 from pipeline.config import config_from_dict
 from pipeline.errors import UserError
-from pipeline.progress import is_failure
 from pipeline.results import RecordResult, results_json
 from pipeline.run import RecordSpec, process_record, resolve_specs
 from pipeline.synth.logs import plan_logs, write_synthetic_logs

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from pipeline.cli import app
+from pipeline.cli.commands import app
 from pipeline.models import ProcessModel
 from pipeline.synth import step_record
 from tests.conftest import have_mirror
@@ -373,7 +373,7 @@ def test_bad_variants_are_one_line_naming_file_and_expectation(tmp_path):
     ("daniw-level-step", ["PumpeRechts", "NiveauTank2"]),
 ])
 def test_real_mat_logs_through_the_registry(name, signals):
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
 
     r = _identify(fetch(name), "--input", signals[0], "--output", signals[1], "--time", "Zeit",
                   "--method", "first_order", "--json")
@@ -385,7 +385,7 @@ def test_real_mat_logs_through_the_registry(name, signals):
 def test_help_names_every_format_and_data_option():
     """The help is written out (the CLI starts without importing the loaders): it must
     name every format, alias and suffix of the registry, and each data option is a key."""
-    from pipeline.cli_data import DATA_OPTIONS, flag
+    from pipeline.cli.data import DATA_OPTIONS, flag
     from pipeline.io import FORMATS, DataConfig
 
     r = runner.invoke(app, ["identify", "--help"])

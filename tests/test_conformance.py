@@ -132,7 +132,7 @@ def test_no_method_crashes_on_random_plants(model, u0, du, sign, t0, y0, noise, 
     u = staircase(t, u0, [(t0, u1)])
     y = response(model, t, u, u0, y0, noise * abs(model.K * du), seed)
     rec = make_record(t, u, y, name="h", source="<hypothesis>")
-    from pipeline.segmentation import segment
+    from pipeline.segmentation.detect import segment
 
     events = segment(rec)
     assert len(events) == 1

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.consistency import EventEstimate, gain_flags, static_map, static_map_note
+from pipeline.grading.consistency import EventEstimate, gain_flags, static_map, static_map_note
 
 
 def est(i, u0, u1, K, se, y0=0.0, T=10.0):

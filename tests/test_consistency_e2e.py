@@ -11,7 +11,7 @@ from pipeline.models import ProcessModel
 from pipeline.record import make_record
 from pipeline.report.build import render
 from pipeline.results import RunResult
-from pipeline.simulation import simulate
+from pipeline.simulation.engine import simulate
 from pipeline.synth import response, staircase
 from tests.conftest import have_mirror
 
@@ -77,7 +77,7 @@ def test_daisy_every_step_with_its_interval():
     the 20.8 -> 14.7 fall read off unsettled windows was the slow mode's tail. What does
     not agree is the whole log with one model: validation_misfit."""
     import pipeline
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
 
     rec = pipeline.load(fetch("daisy-heating"), input="u", output="y", time="time",
                         initial_input=6.0, units={"time": "s", "input": "V", "output": "degC"})

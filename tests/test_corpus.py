@@ -14,7 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 import tests.corpus as corpus
-from pipeline.cli import app
+from pipeline.cli.commands import app
 
 
 def _cases() -> list[corpus.Hostile]:

@@ -2,8 +2,8 @@
 
 import pytest
 
-from pipeline import datasets
 from pipeline.errors import UserError
+from pipeline.io import datasets
 from tests.conftest import have_mirror
 
 pytestmark = pytest.mark.skipif(not have_mirror(), reason="needs ../shared/datasets mirror")

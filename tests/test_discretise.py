@@ -1,4 +1,4 @@
-"""Closed-form ZOH discretisation (pipeline.discretise) and the simulator's fast and
+"""Closed-form ZOH discretisation (pipeline.simulation.zoh) and the simulator's fast and
 irregular paths: the same outputs as the matrix-exponential discretisation and the exact
 superposition of step responses, at bounded cost."""
 
@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from pipeline import discretise, simulation
 from pipeline.models import STRUCTURES, ProcessModel
-from pipeline.simulation import simulate
+from pipeline.simulation import engine as simulation
+from pipeline.simulation import zoh as discretise
+from pipeline.simulation.engine import simulate
 
 PARAMS = {
     "first_order": {"K": 2.0, "T": 5.0},

@@ -13,7 +13,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from typer.testing import CliRunner
 
-from pipeline.cli import app
+from pipeline.cli.commands import app
 from pipeline.config import config_from_dict, load_config
 from pipeline.errors import UserError
 from pipeline.quoting import printable, quoted
@@ -317,7 +317,7 @@ def test_a_user_error_is_one_bounded_line():
 
 
 def test_consistency_figures_draw_units_with_dollars_and_tex():
-    from pipeline.consistency import EventEstimate, StaticMap
+    from pipeline.grading.consistency import EventEstimate, StaticMap
     from pipeline.report.consistency_plots import consistency_figure, static_map_figure
 
     units = {"time": "s", "input": "$\\frac$", "output": "_^$x$"}

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from pipeline.cli import app
+from pipeline.cli.commands import app
 from pipeline.config import config_from_dict
 from pipeline.errors import UserError
 from pipeline.io import FORMATS, DataConfig, load_record
@@ -188,7 +188,7 @@ def _readme_rows() -> dict[str, list[str]]:
 def test_readme_tables_list_every_format_and_key():
     """The formats table names each format's suffixes, aliases and own keys (those beyond
     the keys every table takes); the keys table names each key's formats and option."""
-    from pipeline.cli_data import DATA_OPTIONS, flag
+    from pipeline.cli.data import DATA_OPTIONS, flag
     from pipeline.io.registry import formats_taking
     from pipeline.io.table import TableOptions
 

@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from pipeline.baseline import compare
-from pipeline.baseline_file import check_baseline
-from pipeline.cli import app
+from pipeline.cli.commands import app
 from pipeline.errors import UserError
-from pipeline.findings import Comparison, Finding
+from pipeline.gate.baseline import compare
+from pipeline.gate.baseline_file import check_baseline
+from pipeline.gate.findings import Comparison, Finding
 from pipeline.report.regressions import gate_lines, regression_section
 from pipeline.results import as_doc
 from pipeline.synth.logs import write_synthetic_logs

@@ -7,7 +7,7 @@ import pytest
 
 from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.fit import Flag
-from pipeline.grade import FLAGS, verdict_of
+from pipeline.grading.verdicts import FLAGS, verdict_of
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
 from pipeline.synth import response, staircase, step_record
@@ -129,7 +129,7 @@ def _graded(model: ProcessModel, method: str = "first_order"):
     from dataclasses import replace
 
     from pipeline.fit import Fit
-    from pipeline.grade import grade
+    from pipeline.grading.verdicts import grade
     from pipeline.validate import score
 
     rec = step_record(FOPDT, u0=2.0, changes=[(20.0, 5.0), (150.0, 3.0)], t_end=280.0,
@@ -165,13 +165,13 @@ def test_flag_messages_speak_the_users_time_unit():
 
 
 def test_spearman_is_scipys_with_ties_and_nan_when_constant():
-    """The closed-loop check's rank correlation (pipeline.ranks, lean in memory) is
+    """The closed-loop check's rank correlation (pipeline.grading.ranks, lean in memory) is
     scipy's spearmanr, ties included (sample-to-sample input changes are mostly 0)."""
     import math
 
     from scipy.stats import spearmanr
 
-    from pipeline.ranks import average_ranks, spearman
+    from pipeline.grading.ranks import average_ranks, spearman
     rng = np.random.default_rng(5)
     for digits in (0, 1, 3):
         x = np.round(rng.normal(size=5000), digits)
@@ -190,7 +190,7 @@ def test_a_wide_interval_reads_as_a_number_a_person_can_read():
     from dataclasses import replace
 
     base = _graded(ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0}))
-    from pipeline.grade import _wide_ci
+    from pipeline.grading.verdicts import _wide_ci
 
     for half, text in ((1e302, "±1e+302 times its value"), (3.0, "±300% of its value"),
                        (102.07, "±102 times its value"), (4.8e306, "±4.8e+306 times")):

@@ -13,14 +13,14 @@ import pytest
 from matplotlib.image import imread
 
 from pipeline.errors import UserError
-from pipeline.history import (
-    PARAMS,
+from pipeline.gate.history import (
     SCHEMA,
     append_history,
     history_rows,
     load_history,
     run_times,
 )
+from pipeline.models import PARAMETERS
 from pipeline.record import make_record
 from pipeline.report.history_plots import history_figures, plot_frame, recommended_rows
 from pipeline.results import as_doc
@@ -60,7 +60,7 @@ def test_five_nights_five_run_times(history):
     df = load_history(history)
     assert run_times(df) == [START + timedelta(days=k) for k in range(NIGHTS)]
     assert df.height == NIGHTS * 2 * len(METHODS)
-    assert set(df.columns) >= {"time", "record", "event", "method", "status", *PARAMS,
+    assert set(df.columns) >= {"time", "record", "event", "method", "status", *PARAMETERS,
                                "mse_validation", "mse_identification", "ise",
                                "fit_percent", "pipeline_version"}
     assert df.schema["time"] == pl.Datetime("us", "UTC")

@@ -9,7 +9,7 @@ from pipeline.events import EventData
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import STRUCTURES, ProcessModel
 from pipeline.record import make_record
-from pipeline.segmentation import segment
+from pipeline.segmentation.detect import segment
 from pipeline.synth import pulse, response, staircase
 
 INT_LAG = ProcessModel("integrator_lag", {"K": 0.5, "T": 4.0, "delay": 1.0})

@@ -137,8 +137,8 @@ def test_a_signal_that_arrives_wrapped_still_stops_cleanly():
     with the Interrupted as its context (seen in CI): still exit 143 with one line."""
     import typer
 
-    from pipeline.cli import stoppable
-    from pipeline.interrupt import Interrupted, interruption
+    from pipeline.batch.interrupt import Interrupted, interruption
+    from pipeline.cli.commands import stoppable
 
     def wrapped():
         try:

@@ -31,7 +31,7 @@ def test_csv_sample_time_instead_of_time_column(tmp_path):
 
 
 def test_tclab_csv_from_the_mirror():
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
 
     rec = load_record(fetch("tclab-kantor"), _data(input="Q1", output="T1", time="Time",
                                                   initial_input=0.0))
@@ -40,7 +40,7 @@ def test_tclab_csv_from_the_mirror():
 
 
 def test_daisy_dat():
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
 
     rec = load_record(fetch("daisy-heating"), _data(time="time", columns=["time", "u", "y"]))
     assert rec.n_samples == 801 and rec.sample_time == 2.0

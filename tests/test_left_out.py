@@ -1,4 +1,4 @@
-"""Fold refits by Gauss-Newton steps from the full fit (:mod:`pipeline.left_out`) against
+"""Fold refits by Gauss-Newton steps from the full fit (:mod:`pipeline.refine.left_out`) against
 exact refits of the same folds, on plants with known parameters: white and coloured
 noise, a structure with a direction the data do not determine, a state estimated at an
 unsettled start; and the cross-validation that uses them beyond ten events."""
@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from pipeline.analysis import AnalysisOptions, analyse
-from pipeline.left_out import left_out_fits
 from pipeline.models import ProcessModel
-from pipeline.problem import Problem
 from pipeline.record import make_record
-from pipeline.refine import RefineOptions, refine
-from pipeline.simulation import simulate
+from pipeline.refine.left_out import left_out_fits
+from pipeline.refine.problem import Problem
+from pipeline.refine.refinement import RefineOptions, refine
+from pipeline.simulation.engine import simulate
 from pipeline.synth import staircase
 
 FIRST = ProcessModel("first_order", {"K": 2.0, "T": 5.0, "delay": 1.0})
@@ -127,9 +127,9 @@ def test_an_integrating_models_balance_point_comes_with_its_fold():
 def test_cross_validation_beyond_ten_events_steps_and_matches_exact_refits():
     """Twelve steps: the ten folds are stepped, and the pooled held-out error is the one
     of exact refits of the same folds to 1e-4 (and the noise variance to 25 %)."""
-    from pipeline.joint import cross_validate, refine_span
-    from pipeline.refine_record import event_states
-    from pipeline.segmentation import segment
+    from pipeline.refine.event import event_states
+    from pipeline.refine.joint import cross_validate, refine_span
+    from pipeline.segmentation.detect import segment
     from pipeline.validate import heldout_residuals
     t, u, y = _stairs(FIRST, 4)
     rec = make_record(t, u, y, name="stairs12", source="<stairs12>")
@@ -159,8 +159,8 @@ def test_a_weak_direction_beside_a_strong_one_is_undetermined_not_null():
     cost, so the step is refused (None: exact refit); at 1e-9 of the noise it is a
     direction the residual does not move along, and the step along the strong one is
     taken."""
-    from pipeline.left_out import _bounded_step
-    from pipeline.search import search_space
+    from pipeline.refine.left_out import _bounded_step
+    from pipeline.refine.search import search_space
     rng = np.random.default_rng(0)
     r = rng.normal(0, 1.0, 600)
     q, _ = np.linalg.qr(rng.normal(size=(600, 2)))

@@ -31,7 +31,7 @@ from pipeline.io.mcap import (
 )
 from pipeline.methods import identify
 from pipeline.models import ProcessModel
-from pipeline.segmentation import event_data
+from pipeline.segmentation.detect import event_data
 from pipeline.synth import staircase, step_record
 
 PLANT = ProcessModel("first_order", {"K": 2.5, "T": 7.0})

@@ -12,21 +12,16 @@ import pytest
 from scipy import signal
 from scipy.stats import rankdata
 
-from pipeline import (
-    basis,
-    consistency,
-    joint,
-    problem,
-    ranks,
-    recommend,
-    simulation,
-    superposition,
-    validate,
-)
+from pipeline import validate
 from pipeline.analysis import AnalysisOptions, analyse
+from pipeline.grading import consistency, ranks, superposition
+from pipeline.grading import recommendation as recommend
 from pipeline.models import STRUCTURES, ProcessModel
+from pipeline.refine import joint, problem
 from pipeline.report import drawing
-from pipeline.segmentation import SegmentOptions, segment
+from pipeline.segmentation.detect import SegmentOptions, segment
+from pipeline.simulation import engine as simulation
+from pipeline.simulation import regressors as basis
 from pipeline.synth import step_record
 
 
@@ -305,10 +300,10 @@ def _blocks_from_indices(mask, max_rows):
 
 
 def test_blocks_from_the_masks_runs_are_the_index_arrays_blocks():
-    """:func:`pipeline.lstsq.blocks` and ``block_bounds`` work from the mask's runs, not
+    """:func:`pipeline.refine.lstsq.blocks` and ``block_bounds`` work from the mask's runs, not
     the fit samples' index array: the same starts, sizes, boundaries and rows on random
     masks (runs at the edges, single samples, empty and full masks)."""
-    from pipeline import lstsq
+    from pipeline.refine import lstsq
 
     rng = np.random.default_rng(7)
     for trial in range(3000):

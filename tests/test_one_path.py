@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from pipeline.cli import app
-from pipeline.datasets import fetch
+from pipeline.cli.commands import app
+from pipeline.io.datasets import fetch
 from tests.conftest import ROOT, have_mirror
 
 runner = CliRunner()

@@ -15,7 +15,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pipeline.analysis import AnalysisOptions, analyse
-from pipeline.cli import app
+from pipeline.cli.commands import app
 from pipeline.config import folder_name
 from pipeline.errors import UserError
 from pipeline.files import check_writable, default_mode, write_atomic

@@ -11,13 +11,12 @@ import pytest
 from scipy.signal import savgol_filter
 
 import pipeline.signal as signal
-from pipeline import prepared, savgol
 from pipeline.errors import NotApplicable
 from pipeline.events import EventData
-from pipeline.methods import REGISTRY, identify
+from pipeline.methods import REGISTRY, identify, prepared
 from pipeline.methods.base import input_change, normalised
 from pipeline.models import ProcessModel
-from pipeline.segmentation import segment
+from pipeline.segmentation.detect import segment
 from pipeline.synth import step_record
 
 
@@ -108,15 +107,15 @@ def test_per_event_readings_are_kept_with_the_event_and_dropped_after_it() -> No
 
 @pytest.mark.parametrize("n, window", [(600, 11), (12_000, 241), (60_000, 1201)])
 def test_long_smoothing_window_by_fft_matches_savgol_filter(n: int, window: int) -> None:
-    """The overlap-add path of pipeline.savgol (from SAVGOL_FFT_TAPS taps on) equals
+    """The overlap-add path of pipeline.signal (from SAVGOL_FFT_TAPS taps on) equals
     scipy's savgol_filter to rounding, edges (their own polynomial fits) included; below
     it, to the bit."""
     rng = np.random.default_rng(n)
     h = 1.0 - np.exp(-np.arange(n) / (n / 6)) + 0.01 * rng.normal(size=n)
     for deriv, delta in ((0, 1.0), (1, 0.01)):
         ref = savgol_filter(h, window, 2, deriv=deriv, delta=delta)
-        got = savgol.savgol(h, window, deriv, delta)
-        if window < savgol.SAVGOL_FFT_TAPS:
+        got = signal.savgol(h, window, deriv, delta)
+        if window < signal.SAVGOL_FFT_TAPS:
             assert np.array_equal(got, ref)
         else:
             assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))

@@ -8,10 +8,11 @@ from __future__ import annotations
 import pytest
 from typer.testing import CliRunner
 
-import pipeline.batch as batch
-from pipeline.cli import app
+import pipeline.batch
+import pipeline.batch.pool as pool
+from pipeline.batch.progress import Stages, Tracker
+from pipeline.cli.commands import app
 from pipeline.config import load_config
-from pipeline.progress import Stages, Tracker
 from pipeline.run import process_record, resolve_specs, run_config
 from pipeline.synth.logs import write_synthetic_logs
 
@@ -85,20 +86,20 @@ def test_one_pool_for_records_and_plots(tmp_path, monkeypatch, plots, pools):
     write_synthetic_logs(tmp_path / "logs", 8, seed=6, n_steps=2)
     started = []
 
-    class Counting(batch.ProcessPoolExecutor):
+    class Counting(pool.ProcessPoolExecutor):
         def __init__(self, *a, **k):
             started.append(1)
             super().__init__(*a, **k)
 
-    monkeypatch.setattr(batch, "ProcessPoolExecutor", Counting)
+    monkeypatch.setattr(pool, "ProcessPoolExecutor", Counting)
     drawn = []
-    real_map = batch.parallel_map
+    real_map = pipeline.batch.parallel_map
 
     def spy(pool, n, *a):
         drawn.append(pool is not None)
         return real_map(pool, n, *a)
 
-    monkeypatch.setattr(batch, "parallel_map", spy)
+    monkeypatch.setattr(pipeline.batch, "parallel_map", spy)
     out = run_config(_config(tmp_path, plots), workers=2, out_dir=tmp_path / "out",
                      progress=False)
     assert out.exit_code == 0 and len(started) == pools

@@ -8,8 +8,14 @@ import numpy as np
 import pytest
 
 from pipeline.analysis import AnalysisOptions, analyse
+from pipeline.grading.recommendation import (
+    Candidate,
+    criterion,
+    held_out,
+    paired_difference,
+    recommend,
+)
 from pipeline.models import ProcessModel
-from pipeline.recommend import Candidate, criterion, held_out, paired_difference, recommend
 from pipeline.synth import step_record
 from pipeline.validate import score
 from tests.test_refine import _staircase_record

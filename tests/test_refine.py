@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 
 from pipeline.analysis import AnalysisOptions, analyse
-from pipeline.basis import forced_response, free_basis, model_response
 from pipeline.config import config_from_dict
 from pipeline.methods import REGISTRY, identify, method_ids, select_methods
 from pipeline.methods.lsq import refinement_id, register_refinements
 from pipeline.models import _BOUNDS_DELAY, STRUCTURES, ProcessModel, Structure
 from pipeline.record import make_record
-from pipeline.refine import RefineOptions, refine
+from pipeline.refine.refinement import RefineOptions, refine
 from pipeline.results import RunResult, parse_results, results_json
 from pipeline.run import analysis_options
-from pipeline.segmentation import event_data
-from pipeline.simulation import simulate
+from pipeline.segmentation.detect import event_data
+from pipeline.simulation.engine import simulate
+from pipeline.simulation.regressors import forced_response, free_basis, model_response
 from pipeline.synth import response, staircase, step_record
 
 FOPDT = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 2.0})
@@ -275,7 +275,7 @@ def test_bootstrap_intervals_are_an_option():
 
 
 def test_folds_are_single_events_up_to_the_cap_then_interleaved():
-    from pipeline.joint import MAX_FOLDS, folds_of
+    from pipeline.refine.joint import MAX_FOLDS, folds_of
     assert folds_of([0, 2, 5]) == [[0], [2], [5]]
     assert folds_of(range(MAX_FOLDS)) == [[i] for i in range(MAX_FOLDS)]
     many = folds_of(range(23))
@@ -305,7 +305,7 @@ def test_cross_validation_beyond_the_fold_cap_holds_every_event_out_once():
 
 
 def test_one_event_models_are_scored_on_at_most_ten_other_events():
-    from pipeline.joint import held_out_events
+    from pipeline.refine.joint import held_out_events
     assert held_out_events([0, 1, 2, 3], 2) == [0, 1, 3]
     many = held_out_events(range(200), 7)
     assert len(many) == 10 and 7 not in many and many[0] == 0
@@ -324,9 +324,9 @@ def test_one_event_models_are_scored_on_at_most_ten_other_events():
     ("integrator_lag", {"K": 0.2, "T": 4.0, "delay": 0.5}, "estimated"),
 ])
 def test_refine_model_is_refine_without_the_intervals(structure, truth, state):
-    """A cross-validation fold's refit (:func:`pipeline.refine.refine_model`) gives the
+    """A cross-validation fold's refit (:func:`pipeline.refine.refinement.refine_model`) gives the
     model and balance point :func:`refine` gives, to the bit, on noisy data."""
-    from pipeline.refine import refine_model
+    from pipeline.refine.refinement import refine_model
     t = np.arange(0, 300, 0.1)
     u = staircase(t, 1.0, [(20.0, 2.0), (150.0, 1.5)])
     model = ProcessModel(structure, truth)
@@ -346,12 +346,12 @@ def test_a_fit_over_many_short_events_keeps_rows_within_each_event():
     """1,200 steps of a first-order plant, 200 samples each: a joint fit over them with a
     one-event fit's 600 criterion rows (and its decimated search: one sample per two
     events) averaged each transient away and came out as K -1.1, T 2,011 s, dead time
-    2,674 s. With :data:`pipeline.joint.ROWS_PER_EVENT` rows per event it finds the
+    2,674 s. With :data:`pipeline.refine.joint.ROWS_PER_EVENT` rows per event it finds the
     plant."""
     from pipeline.events import EventData
-    from pipeline.joint import ROWS_PER_EVENT, span_fit, span_options
-    from pipeline.refine_record import event_states
-    from pipeline.segmentation import segment
+    from pipeline.refine.event import event_states
+    from pipeline.refine.joint import ROWS_PER_EVENT, span_fit, span_options
+    from pipeline.segmentation.detect import segment
     n, n_events, dt = 240_000, 1200, 0.1
     rng = np.random.default_rng(0)
     w = n // (n_events + 1)

@@ -23,10 +23,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.basis import forced_response
 from pipeline.methods import identify
 from pipeline.models import ProcessModel
-from pipeline.simulation import simulate
+from pipeline.simulation.engine import simulate
+from pipeline.simulation.regressors import forced_response
 from tests.test_integrating import INT, INT_LAG, RAMP_NOISE, inverse_event, pulse_event, step_event
 
 SEEDS = range(50)
@@ -134,7 +134,7 @@ def test_zeros_of_either_sign_are_found(truth):
     10 % (the zero's Tz solved with the gain inside the search; the dead time of a
     response that jumps started where it leaves its noise band). From the first-order
     readings alone these fell into a pure-gain local minimum (K Tz/T ~ K)."""
-    from pipeline.segmentation import event_data
+    from pipeline.segmentation.detect import event_data
     from pipeline.synth import response, staircase
 
     t = np.arange(901) * DT

@@ -26,8 +26,8 @@ from scipy.signal import lfilter
 from pipeline.analysis import analyse
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import ProcessModel
-from pipeline.segmentation import event_data
-from pipeline.simulation import simulate
+from pipeline.segmentation.detect import event_data
+from pipeline.simulation.engine import simulate
 from pipeline.synth import staircase, step_record
 
 # name -> truth, time scale (s), sample time (s), the parameters the issue bounds

@@ -1,4 +1,4 @@
-"""The multistart search (:func:`pipeline.search.multistart`): a run that ends with a time
+"""The multistart search (:func:`pipeline.refine.search.multistart`): a run that ends with a time
 constant at its upper bound (a hundred spans, far beyond the data) sends every other
 candidate start through the search, and the lowest cost is kept."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.search import FAR_BOUND, far_bound, multistart, search_space
+from pipeline.refine.search import FAR_BOUND, far_bound, multistart, search_space
 
 #: A one-lag search over a 10 s span at 0.1 s: T from 1e-3 to 1000 s (log scale).
 SPACE = search_space("first_order", ["T"], 0.1, 10.0)
@@ -63,7 +63,7 @@ def test_kept_residuals_are_bounded_and_change_nothing(monkeypatch):
     """A search over a long residual (20,000 rows: a fit over many events) keeps at most
     MEMO_BYTES of residuals to reuse; with room for one alone it simulates a start again
     where it would have reused it, and ends at the same parameters and cost."""
-    import pipeline.search as search
+    import pipeline.refine.search as search
     t = np.linspace(0.0, 10.0, 20_000)
     y = 1.0 - np.exp(-t / 2.0)
     calls = []

@@ -5,7 +5,7 @@ import pytest
 
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
-from pipeline.segmentation import SegmentOptions, segment
+from pipeline.segmentation.detect import SegmentOptions, segment
 from pipeline.synth import pulse, response, staircase
 
 FO = ProcessModel("first_order", {"K": 2.0, "T": 5.0})
@@ -101,7 +101,7 @@ def test_segment_does_not_mutate_record():
 def test_daisy_flags_the_windows_still_creeping():
     """DaISy: the first 400 s window has settled; the later ones still drift by 2-3 % of
     their change between the last two tenths (a slow second mode) and are flagged."""
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
     from tests.conftest import have_mirror
 
     if not have_mirror():
@@ -244,7 +244,7 @@ def test_pulses_on_lags_are_not_level_shifts():
 
 
 def test_daisy_creeping_windows_are_not_ramps():
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
     from tests.conftest import have_mirror
 
     if not have_mirror():

@@ -3,8 +3,8 @@ sample-by-sample scan gave; no event without an input change (issue 13 item 14);
 magnitudes segment without overflow (issue 13 item 15).
 
 The reference loops below are the scan as it was before (one sample at a time, each
-look-ahead over the whole rest of the record): :mod:`pipeline.edges` must return the same
-indices on every input.
+look-ahead over the whole rest of the record): :mod:`pipeline.segmentation.edges` must
+return the same indices on every input.
 """
 
 import warnings
@@ -13,12 +13,18 @@ import numpy as np
 import pytest
 from scipy.stats import trim_mean
 
-from pipeline import edges
 from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.errors import UserError
 from pipeline.models import ProcessModel
 from pipeline.record import Record, make_record
-from pipeline.segmentation import SegmentOptions, _trim_mean, event_data, input_threshold, segment
+from pipeline.segmentation import edges
+from pipeline.segmentation.detect import (
+    SegmentOptions,
+    _trim_mean,
+    event_data,
+    input_threshold,
+    segment,
+)
 from pipeline.synth import response
 from pipeline.synth.closed_loop import pi_loop_record
 

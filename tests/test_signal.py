@@ -71,7 +71,7 @@ def test_quantised_sensor_is_not_noise_free() -> None:
 
 
 def test_real_logs_resolution() -> None:
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
     from tests.conftest import have_mirror
 
     if not have_mirror():

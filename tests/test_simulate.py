@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pipeline.models import ProcessModel
-from pipeline.simulation import simulate
+from pipeline.simulation.engine import simulate
 
 MODELS = [
     ProcessModel("first_order", {"K": 2.5, "T": 7.0}),

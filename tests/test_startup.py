@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.method_catalogue import FIELDS, catalogue, generated_text
+from pipeline.cli.catalogue import FIELDS, catalogue, generated_text
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("scipy", "scipy.stats", "scipy.signal", "matplotlib", "jinja2", "polars", "numpy")
@@ -53,6 +53,6 @@ def test_methods_listing_shows_every_registered_method():
 
 def test_shipped_catalogue_is_the_generated_one():
     shipped = (ROOT / "pipeline" / "data" / "methods.json").read_text(encoding="utf-8")
-    assert shipped == generated_text(), "regenerate: python -m pipeline.method_catalogue " \
+    assert shipped == generated_text(), "regenerate: python -m pipeline.cli.catalogue " \
         "> pipeline/data/methods.json"
     assert all(tuple(m) == FIELDS for m in catalogue())

@@ -8,7 +8,7 @@ Why the choice is robust rather than tuned: on a window that ends on a steady ra
 self-regulating models do not apply (no final value), on a window that settles the
 integrating ones do not (an integrator ramps after a step); in between (a slow lag's short
 window, still curving) both are fitted and the integrators lose by hundreds of AIC units,
-far beyond the margin of 2 (:mod:`pipeline.recommend`). Noise: 1 % of ``K du`` for the
+far beyond the margin of 2 (:mod:`pipeline.grading.recommendation`). Noise: 1 % of ``K du`` for the
 self-regulating plants, 1 % of the ramp's rise over its lag ``K du (T + L)`` for the
 integrators (sigma 0.05, the same absolute noise for the pure integrator).
 """
@@ -21,10 +21,10 @@ import numpy as np
 import pytest
 
 from pipeline.analysis import analyse
+from pipeline.grading.recommendation import AIC_MARGIN
 from pipeline.models import ProcessModel
-from pipeline.recommend import AIC_MARGIN
 from pipeline.record import make_record
-from pipeline.simulation import simulate
+from pipeline.simulation.engine import simulate
 from pipeline.synth import staircase, step_record
 from tests.conftest import have_mirror
 
@@ -170,8 +170,8 @@ def test_report_baseline_and_history_carry_the_new_structures():
     """An integrator with a lag in cm and V: the report's tables give its gain in cm/V/s
     and draw its fits; a 10 % larger gain in the baseline is a regression of K for each
     integrating fit; the history has its K, T and delay (and Tz for a zero's fit)."""
-    from pipeline.baseline import compare
-    from pipeline.history import history_rows
+    from pipeline.gate.baseline import compare
+    from pipeline.gate.history import history_rows
     from pipeline.report.build import render
     from pipeline.results import RunResult
 
@@ -214,7 +214,7 @@ def test_dc_motor_speed_and_position():
     integrator with a lag, started on that steady ramp, its balance point about 0.8 V
     and its gain the change of the ramp's slope over the input change."""
     import pipeline
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
 
     path = fetch("daniw-dc-step")
     speed = analyse(pipeline.load(path, input="Motorspannung", output="Geschwindigkeit",
@@ -243,7 +243,7 @@ def test_tank_level_is_self_regulating():
     the integrating refinements do not apply, the model is self-regulating with a gain of
     about 4.7 cm/V and a time constant of about a minute."""
     import pipeline
-    from pipeline.datasets import fetch
+    from pipeline.io.datasets import fetch
 
     res = analyse(pipeline.load(fetch("daniw-level-step"), input="PumpeRechts",
                                 output="NiveauTank2", time="Zeit"))

@@ -8,11 +8,16 @@ import control
 import numpy as np
 import pytest
 
-from pipeline.baseline import param_scale, relative_change, step_response_distance, time_scale
-from pipeline.history import SCHEMA
+from pipeline.gate.baseline import (
+    param_scale,
+    relative_change,
+    step_response_distance,
+    time_scale,
+)
+from pipeline.gate.history import SCHEMA
 from pipeline.models import PARAMETERS, STRUCTURES, ProcessModel
 from pipeline.report.tables import params_text
-from pipeline.simulation import _response, pulse_response, simulate
+from pipeline.simulation.engine import _response, pulse_response, simulate
 
 NEW = {
     "integrator": {"K": 0.5},

@@ -8,7 +8,7 @@ import pytest
 
 from pipeline.errors import UserError
 from pipeline.methods import identify
-from pipeline.segmentation import event_data
+from pipeline.segmentation.detect import event_data
 from pipeline.synth.logs import (
     CORRUPTIONS,
     log_record,

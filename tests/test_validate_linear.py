@@ -6,11 +6,12 @@ same results."""
 import numpy as np
 import pytest
 
-from pipeline import consistency, superposition, validate
-from pipeline.discretise import memory
+from pipeline import validate
+from pipeline.grading import consistency, superposition
 from pipeline.models import ProcessModel
-from pipeline.segmentation import SegmentOptions, segment
-from pipeline.simulation import simulate
+from pipeline.segmentation.detect import SegmentOptions, segment
+from pipeline.simulation.engine import simulate
+from pipeline.simulation.zoh import memory
 from pipeline.synth import step_record
 from pipeline.uncertainty import covariance, variance_factor
 
@@ -100,7 +101,7 @@ def _dense_step_gains(rec, events, shape):
 @pytest.mark.parametrize("sparse", [False, True], ids=["compressed", "kkt"])
 @pytest.mark.parametrize("model", MODELS[:3], ids=lambda m: m.structure)
 def test_step_gains_without_the_dense_matrix(model, sparse, monkeypatch):
-    """Both solvers of :mod:`pipeline.superposition` against the dense least squares:
+    """Both solvers of :mod:`pipeline.grading.superposition` against the dense least squares:
     the same gains and standard errors, and neither builds the samples x events matrix
     (the compressed one solves a few rows per event; the KKT one a sparse system of
     about five unknowns per event)."""

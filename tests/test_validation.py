@@ -73,7 +73,7 @@ def test_a_method_bug_fails_that_fit_only(monkeypatch):
 
 def _restart_from_rest(model, rec, events, validation):
     """The old validation: each run of validation events from rest at its (u0, y0)."""
-    from pipeline.simulation import simulate
+    from pipeline.simulation.engine import simulate
     from pipeline.validate import validation_runs
 
     errs = []
@@ -88,7 +88,7 @@ def test_validation_is_continuous_when_the_plant_is_still_moving():
     """Steps 1.5 T apart: at each validation step the plant is still moving. The true
     model scores the noise variance when simulated continuously; restarted from rest at
     each run's operating point it scored a false start, dozens of times worse."""
-    from pipeline.segmentation import segment
+    from pipeline.segmentation.detect import segment
     from pipeline.validate import score
 
     truth = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0})
@@ -106,7 +106,7 @@ def test_validation_is_continuous_when_the_plant_is_still_moving():
 def test_warmup_offset_absorbs_a_level_shift_before_validation():
     """An unmodelled output shift (a disturbance) after identification: the continuous
     simulation is off by it, the warm-up before the validation step measures it."""
-    from pipeline.segmentation import segment
+    from pipeline.segmentation.detect import segment
     from pipeline.validate import score, warmup
 
     truth = ProcessModel("first_order", {"K": 2.0, "T": 3.0})

@@ -18,7 +18,10 @@ from pathlib import Path
 from ..errors import UserError
 from ..record import Record
 from .base import DataSection, Format, SignalConfig
-from .options import DataConfig, does_not_apply, options_for
+from .datasets import fetch, get, load_registry
+from .mcap import format_inspect, inspect_mcap
+from .options import DataConfig, check_file, check_section, does_not_apply, options_for
+from .paths import files_named
 from .registry import FORMATS, SUFFIXES, find_format, format_of
 
 
@@ -38,5 +41,7 @@ def load_record(path: Path, data: DataSection, name: str | None = None) -> Recor
     return fmt.load(path, data, options_for(data, fmt, str(path)), name or path.stem)
 
 
-__all__ = ["FORMATS", "SUFFIXES", "DataConfig", "Format", "Record", "SignalConfig",
-           "does_not_apply", "find_format", "format_of", "load_record"]
+__all__ = ["FORMATS", "SUFFIXES", "DataConfig", "Format", "Record", "SignalConfig", "check_file",
+           "check_section", "does_not_apply", "fetch", "files_named", "find_format",
+           "format_inspect", "format_of", "get", "inspect_mcap", "load_record",
+           "load_registry", "options_for"]

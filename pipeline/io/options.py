@@ -20,10 +20,10 @@ from typing import Any, Literal
 from pydantic import ValidationError, create_model
 from pydantic.fields import FieldInfo
 
-from ..datasets import load_registry
 from ..errors import UserError
 from ..quoting import quoted
 from .base import DataSection, Format, SignalConfig, Strict
+from .datasets import load_registry
 from .registry import FORMATS, NAMES, SUFFIXES, find_format, formats_taking
 
 __all__ = ["DataConfig", "SignalConfig", "check_file", "check_keys", "check_section",

@@ -16,7 +16,7 @@
   rounding (:func:`regular_despite_rounding`) is put back on its exact steps.
 - **An irregular grid** (a historian that stores on change, a crafted 1 ms / 0.9 s grid)
   is kept as it is: it is simulated with one exact zero-order-hold step per distinct
-  interval (:mod:`pipeline.discretise`), at a cost linear in the samples.
+  interval (:mod:`pipeline.simulation.zoh`), at a cost linear in the samples.
 
 The record's ``units["time"]`` is the unit the user reads times in (``time_unit``); the
 record itself is always in seconds.

@@ -7,14 +7,14 @@ here it is applied to an :class:`~pipeline.events.EventData`:
   did not change (``du`` zero, not finite or within the input's noise);
 * :func:`normalised` - time since t0, fractional response and its noise level, for the
   self-regulating methods (not applicable to a ramp or an inverse response), as a
-  :class:`~pipeline.prepared.Response`: smoothed and differentiated once per event;
+  :class:`~pipeline.methods.prepared.Response`: smoothed and differentiated once per event;
 * :func:`undershoot` - the wrong-way excursion of an inverse response;
 * :func:`band_exit_time` - seed 001 "Time delay": when the output leaves its noise band
   (ERRATA [S1] 14: the first exit of a +-max(1 %, 4 sigma) band);
 * :func:`clip_delay` - a negative computed delay becomes 0, recorded as ``delay_computed``
   and ``delay_clipped`` in every method's diagnostics.
 
-Every reading here is computed once per event (:func:`pipeline.prepared.per_event`) and
+Every reading here is computed once per event (:func:`pipeline.methods.prepared.per_event`) and
 shared by the methods that need it: the same response object, the same smoothing.
 """
 
@@ -27,8 +27,8 @@ from scipy.ndimage import uniform_filter1d
 
 from ..errors import NotApplicable
 from ..events import EventData
-from ..prepared import Response, per_event
 from ..signal import NOISE_FREE, interp_cross
+from .prepared import Response, per_event
 
 #: An input change within this many of the input's noise standard deviations is none.
 INPUT_NOISE_Z = 3.0
@@ -57,7 +57,7 @@ def input_change(ev: EventData) -> float:
 @per_event
 def fraction(ev: EventData) -> Response:
     """The fractional response (y - y0)/(y_ss - y0) against the time since t0, with its
-    noise level (a :class:`~pipeline.prepared.Response`, unpacking as ``tau, h,
+    noise level (a :class:`~pipeline.methods.prepared.Response`, unpacking as ``tau, h,
     sigma_h``); a step whose input or output did not change is not applicable."""
     if ev.kind == "step":
         input_change(ev)

@@ -30,7 +30,6 @@ from __future__ import annotations
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..prepared import Response
 from .base import clip_delay, normalised
 from .charts import (
     HARRIOTT_LEVEL,
@@ -41,6 +40,7 @@ from .charts import (
     harriott_r,
     harriott_x73,
 )
+from .prepared import Response
 from .registry import MethodResult, register
 from .viteckova import V2, read_t33_t70, two_point
 

@@ -23,10 +23,10 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..prepared import Response, per_event
 from ..signal import crossing_time, smooth
 from ..simulation import simulate
 from .base import clip_delay
+from .prepared import Response, per_event
 from .registry import MethodResult, register
 from .second_order import check_oscillation, oscillation, zeta_from_overshoot
 

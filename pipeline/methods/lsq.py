@@ -1,6 +1,6 @@
 """The least-squares refinements as methods: one ``lsq_<structure>`` per entry of the
 structure table (:data:`pipeline.models.STRUCTURES`), generated here, so a new structure
-gets its refinement with no further edit. Each runs :func:`pipeline.refine_record.
+gets its refinement with no further edit. Each runs :func:`pipeline.refine.event.
 refine_event`, started from the graphical methods' readings of the same event. They take
 steps and pulses alike (the measured input drives the model, whatever its shape).
 """
@@ -8,12 +8,22 @@ steps and pulses alike (the measured input drives the model, whatever its shape)
 from __future__ import annotations
 
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from ..errors import NotApplicable
-from ..events import EventData
+from ..events import Event, EventData
+from ..fit import Fit
 from ..models import STRUCTURES, ProcessModel
-from ..refine_record import mismatch, refine_event, result_parts, unchanged
+from ..record import Record
+from ..refine import (
+    RefineOptions,
+    carry_source,
+    mismatch,
+    refine_event,
+    result_parts,
+    span_fit,
+    unchanged,
+)
 from .base import input_change
 from .registry import ANY_EVENT, REGISTRY, MethodResult, identify, register
 
@@ -56,7 +66,7 @@ def _refinement(structure: str) -> Callable[..., MethodResult]:
         return MethodResult(model, diagnostics, ci95)
 
     method.__doc__ = (f"Least-squares refinement of a {structure} model on one event "
-                      "(pipeline.refine_record.refine_event).")
+                      "(pipeline.refine.refine_event).")
     return method
 
 
@@ -73,3 +83,19 @@ def register_refinements() -> None:
 
 
 register_refinements()
+
+
+def event_fit(record: Record, events: Sequence[Event], i: int, method: str, *,
+              models: Sequence[ProcessModel], states: Sequence[str],
+              options: RefineOptions | None = None) -> Fit:
+    """Refinement ``method`` on event ``i`` alone: with the state carried from an earlier
+    event that started at rest (:func:`span_fit` over just this event) when the output was
+    still moving at t0 and such an event exists, else on the event's own window with the
+    state at rest or estimated (:func:`identify`)."""
+    ev = events[i]
+    if states[i] != "rest" and carry_source(list(states), i) is not None \
+            and REGISTRY[method].accepts(ev.kind):
+        return span_fit(record, events, [i], method, REGISTRY[method].structures[0],
+                        models=models, states=states, options=options)
+    return identify(EventData.from_event(record, ev), method, models=models, state=states[i],
+                    options=options)

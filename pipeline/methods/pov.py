@@ -9,9 +9,9 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..prepared import Response
 from ..signal import crossing_time
 from .base import band_exit_time, clip_delay, normalised
+from .prepared import Response
 from .registry import MethodResult, register
 from .second_order import (
     check_oscillation,

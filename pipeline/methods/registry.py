@@ -14,7 +14,7 @@ refinement with no further edit. A graphical method reads one kind of event; a r
 takes either (``event=ANY_EVENT``: the measured input drives its model, a step or a
 pulse). A refinement run on an event alone starts from the graphical methods' models of
 that event; :func:`pipeline.analysis.analyse` hands it the ones it already has
-(:mod:`pipeline.refine_record`).
+(:mod:`pipeline.refine.event`).
 
 :func:`identify` runs one method by id and turns
 :class:`~pipeline.errors.NotApplicable` into a ``not_applicable`` fit and any other
@@ -114,7 +114,7 @@ def register(*, id: str, event: str, structures: tuple[str, ...], references: tu
 def identify(ev: EventData, method: str, **context) -> Fit:
     """Run method ``method`` on ``ev``; never raises for a registered id. ``context`` goes
     to a refinement: the graphical ``models`` to start from, the initial ``state``, the
-    ``options`` (:func:`pipeline.refine_record.refine_event`)."""
+    ``options`` (:func:`pipeline.refine.refine_event`)."""
     info = REGISTRY[method]
     if not info.accepts(ev.kind):
         return Fit(method, ev.index, "not_applicable",

@@ -10,9 +10,9 @@ from scipy.optimize import brentq
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..prepared import Response
 from ..responses import second_order_step
 from .base import band_exit_time, clip_delay, normalised
+from .prepared import Response
 from .registry import MethodResult, register
 
 

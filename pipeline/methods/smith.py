@@ -35,9 +35,9 @@ import numpy as np
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..prepared import Response
 from .base import normalised
 from .charts import SMITH_RATIO_MAX, SMITH_RATIO_MIN, smith_lookup
+from .prepared import Response
 from .registry import MethodResult, register
 from .second_order import Z_PEAK
 

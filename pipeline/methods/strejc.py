@@ -51,8 +51,7 @@ from scipy.interpolate import CubicSpline
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..savgol import savgol
-from ..signal import NOISE_FREE
+from ..signal import NOISE_FREE, savgol
 from .base import normalised
 from .charts import (
     STREJC_LEVEL_SUM,

@@ -19,8 +19,8 @@ from __future__ import annotations
 from ..errors import NotApplicable
 from ..events import EventData
 from ..models import ProcessModel
-from ..prepared import per_event
 from .base import clip_delay, normalised
+from .prepared import per_event
 from .registry import MethodResult, register
 
 #: eq. (2)/(3): Td = a t33 - b t70, tau = c (t70 - t33), first order.

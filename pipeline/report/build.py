@@ -13,10 +13,10 @@ from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, select_autoescape
 
+from ..batch import deferred
 from ..errors import UserError
-from ..findings import Comparison
-from ..grade import FLAGS
-from ..interrupt import deferred
+from ..gate import Comparison
+from ..grading import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
 from .markdown import finalize, finalize_html, md_code, md_text

@@ -8,8 +8,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ..consistency import EventEstimate, StaticMap
 from ..record import in_time_unit
+from ..results import EventEstimate, StaticMap
 from .drawing import literal_text
 from .plots import DPI, png_of
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.text import Text
 
-from ..heap import CHUNK
+from ..memory import CHUNK
 from ..quoting import printable
 
 
@@ -29,7 +29,7 @@ def decimate(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np
     NaN keeps one NaN (a gap in the data stays a gap in the line).
 
     Hand-written with numpy (matplotlib draws every point it is given): O(samples), in
-    chunks of :data:`pipeline.heap.CHUNK` samples (a 10 M-sample curve's per-sample
+    chunks of :data:`pipeline.memory.CHUNK` samples (a 10 M-sample curve's per-sample
     temporaries, about 40 bytes a sample, were 400 MB at once). A slice that spans two
     chunks takes the lower minimum and the higher maximum of its two parts, the earlier
     sample on a tie: the same samples as one pass over the whole curve.

@@ -1,4 +1,4 @@
-"""Trend plots of the run history (:mod:`pipeline.history`) as PNG bytes.
+"""Trend plots of the run history (:mod:`pipeline.gate.history`) as PNG bytes.
 
 What an engineer reads off a trend is whether a plant moved, so each line is one record,
 on its recommended model of each run (the model to use: which method that is may change
@@ -7,7 +7,7 @@ recommended model when given, else the record's first run in the history. One fi
 model parameter of :data:`pipeline.models.PARAMETERS` present, and one of the validation
 MSE; 1 is "as the reference", a 10 % gain drift is a line at 1.10.
 
-The normalisation is the regression gate's (:func:`pipeline.baseline.param_scale`):
+The normalisation is the regression gate's (:func:`pipeline.gate.param_scale`):
 ``1 + (value - reference) / scale``, which is ``value / reference`` for a gain or a time
 constant (scale = |reference|) and keeps a dead time or a zero that starts at 0 finite
 (scale = the model's time scale). The MSE is ``value / reference``. The gain, the dead
@@ -30,8 +30,7 @@ import polars as pl
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ..baseline import param_scale
-from ..history import PARAMS
+from ..gate import param_scale
 from ..models import PARAMETERS
 from .drawing import literal_text
 
@@ -57,7 +56,7 @@ def history_figures(df: pl.DataFrame, record: str | None = None, *,
         return []
     what = "the baseline" if reference else "the first run"
     figures = []
-    for column in [p for p in PARAMS if p in rows.columns] + [MSE]:
+    for column in [p for p in PARAMETERS if p in rows.columns] + [MSE]:
         frame, note = plot_frame(rows, column, reference, max_lines)
         if frame.is_empty():
             continue
@@ -110,7 +109,7 @@ def _scale(column: str, row: Mapping) -> tuple[float, float] | None:
     value = float(value)
     if column == MSE:
         return (value, value) if value > 0 else None
-    params = {p: float(row[p]) for p in PARAMS if row.get(p) is not None}
+    params = {p: float(row[p]) for p in PARAMETERS if row.get(p) is not None}
     scale = param_scale(column, row.get("structure"), params)
     if not scale > 0:
         return None

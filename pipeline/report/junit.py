@@ -34,8 +34,8 @@ import socket
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from ..baseline import Comparison, Finding
 from ..files import write_atomic
+from ..gate import Comparison, Finding
 from ..quoting import printable
 from ..schema import FitDoc, RecordDoc, ResultsDoc
 

@@ -1,11 +1,11 @@
 """The report's Regressions section, the Summary's regression mark and the terminal lines
-of the gate, from one :class:`~pipeline.findings.Comparison` (pure).
+of the gate, from one :class:`~pipeline.gate.Comparison` (pure).
 
 A drift of the plant moves every method's model: a 10 % gain drift is one finding per
 method and record. The section opens with one row per regressed record, on its
 recommended model (the model to use): the parameter furthest past its tolerance, the
 baseline and current values, the change and the tolerance
-(:meth:`~pipeline.findings.Comparison.by_record` picks it). Every finding, one per
+(:meth:`~pipeline.gate.Comparison.by_record` picks it). Every finding, one per
 method and parameter, follows in a second table (folded in ``<details>`` in HTML). The
 Summary gets a "vs baseline" column beside the verdict that says ``regressed`` for those
 records, and the terminal prints one line per regressed record.
@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from ..findings import Comparison, Finding, RecordRegression, display_text, pct_text
+from ..gate import Comparison, Finding, RecordRegression, display_text, pct_text
 from .tables import Cell, Table
 
 #: The terminal lists at most this many regressed records (the report lists them all).

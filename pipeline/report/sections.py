@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..consistency import static_map_note
+from ..grading import static_map_note
 from ..record import in_time_unit
 from ..results import RecordResult
 from ..schema import fit_label

@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..fit import Fit
-from ..grade import answer, record_verdict
+from ..grading import answer, record_verdict
 from ..methods import REGISTRY
 from ..models import PARAMETERS, STRUCTURES, ProcessModel
 from ..record import Record, in_time_unit

@@ -7,6 +7,7 @@
   (``python -m pipeline.synth.mcap_example`` rewrites it).
 """
 
+from .logs import write_synthetic_logs
 from .plants import (
     JAKOUBEK_LAGS,
     jakoubek_record,
@@ -18,4 +19,4 @@ from .plants import (
 )
 
 __all__ = ["JAKOUBEK_LAGS", "jakoubek_record", "lag_chain_step", "pulse", "response",
-           "staircase", "step_record"]
+           "staircase", "step_record", "write_synthetic_logs"]

@@ -28,7 +28,15 @@ from mcap.stream_reader import StreamReader, get_chunk_data_stream
 from mcap.summary import Summary
 
 from ...errors import UserError
-from .decode import Context, FieldPath, Handler, Series, decoder_factories, make_handler, parse_path
+from .decode import (
+    Context,
+    FieldPath,
+    Handler,
+    Series,
+    decoder_factories,
+    make_handler,
+    parse_path,
+)
 
 if TYPE_CHECKING:
     from .decode import Signal

@@ -1,0 +1,16 @@
+"""Batch runs: many records in a process pool (or on Dask), their progress, and the
+interrupts that stop a run without losing its work.
+
+- :mod:`.pool` - the records of a run in worker processes (or a Dask cluster), in order;
+- :mod:`.progress` - the stage lines and the progress bar;
+- :mod:`.interrupt` - Ctrl-C and SIGTERM: a run stops between records, a report is
+  never half written (:func:`deferred`);
+- :mod:`.forkserver_guard` - the workers' start method.
+"""
+
+from .interrupt import deferred, handle_signals, interruption
+from .pool import check_executor, local_pool, parallel_map, run_records
+from .progress import Stages, show_progress
+
+__all__ = ["Stages", "check_executor", "deferred", "handle_signals", "interruption",
+           "local_pool", "parallel_map", "run_records", "show_progress"]

@@ -1,0 +1,316 @@
+"""Many records: in-process, a local process pool, or a Dask distributed cluster.
+
+:func:`run_records` applies one job (``pipeline run`` passes
+:func:`pipeline.run.process_record`) to every record spec and returns the results **in the
+order of the specs**, whatever order they finish in. The job never raises for a bad record
+(the failure travels in the result). If the job raises anyway, that record comes back
+failed with the exception as its one-line reason (:func:`crashed`); if a pool worker dies,
+the pool is broken and the records not finished by then come back failed the same way: the
+batch always completes.
+
+* ``workers == 1`` (or a single record): a plain loop in this process.
+* ``workers > 1`` (default: one per core, at most one per record): a
+  :class:`concurrent.futures.ProcessPoolExecutor` (:func:`local_pool`) whose workers start
+  from a clean ``forkserver`` process (``spawn`` where there is none), never by forking
+  this possibly threaded process; each worker limits the native BLAS/OpenMP pools to one
+  thread (threadpoolctl, :func:`limit_native_threads`), as the in-process loop does, and
+  dies with this process (:func:`pipeline.batch.interrupt.guard_worker`). An exception here
+  (:class:`~pipeline.batch.interrupt.Interrupted` by SIGTERM or SIGINT included) cancels what is
+  queued and terminates the workers. The specs and the config are small frozen, picklable
+  values. A caller may pass its own pool (``pool=``) to use it again afterwards, e.g. for
+  the report's plots (:func:`parallel_map`), instead of starting a second one.
+* ``executor="dask"``: ``dask.distributed.Client(scheduler).map`` of the same job (the
+  optional ``dask`` extra; the workers need ``pipeline`` importable). ``scheduler=None``
+  starts a temporary local cluster, as ``Client()`` does. Paths in the specs must be
+  absolute (:func:`pipeline.run.resolve_specs` makes them so): a worker runs elsewhere.
+
+Progress (:mod:`pipeline.batch.progress`): a bar on stderr when ``progress`` is True, or when it
+is None and stderr is a terminal; each record's time and outcome is logged at INFO on the
+``pipeline`` logger (``pipeline run --verbose``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import multiprocessing
+import os
+import socket
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from typing import Any
+
+from ..errors import UserError
+from ..results import RecordResult
+from .interrupt import guard_worker, interruption, output_detached
+from .progress import Tracker, show_progress
+
+EXECUTORS = ("local", "dask")
+DASK_HINT = "install the dask extra: pip install .[dask]"
+
+Job = Callable[[Any, Any], Any]
+log = logging.getLogger(__name__)
+
+
+def run_records(specs: Sequence, cfg, job: Job, *, workers: int | None = None,
+                executor: str = "local", scheduler: str | None = None,
+                progress: bool | None = None, pool: ProcessPoolExecutor | None = None) -> list:
+    """``[job(spec, cfg) for spec in specs]``, computed in parallel (module docstring).
+
+    ``job`` must be a module-level function (it is pickled by name). Raises
+    :class:`UserError` for a bad ``executor``, ``workers`` < 1, a missing Dask installation
+    or an unreachable scheduler. ``pool``: a :func:`local_pool` to run in (``workers`` is
+    then ignored).
+    """
+    check_executor(executor)
+    specs = list(specs)
+    if not specs:
+        return []
+    with Tracker(len(specs), show_progress(progress)) as tracker:
+        if executor == "dask":
+            return _run_dask(specs, cfg, job, scheduler, tracker)
+        if pool is not None:
+            return _run_pool(specs, cfg, job, pool, tracker)
+        with local_pool(workers, len(specs)) as own:
+            if own is None:
+                return _run_inline(specs, cfg, job, tracker)
+            return _run_pool(specs, cfg, job, own, tracker)
+
+
+def check_executor(executor: str) -> None:
+    """A :class:`UserError` for an executor that is not one of :data:`EXECUTORS`."""
+    if executor not in EXECUTORS:
+        raise UserError(f"unknown executor {executor!r}; expected one of: "
+                        + ", ".join(EXECUTORS))
+
+
+def resolve_workers(workers: int | None, n_records: int) -> int:
+    """Processes to use: ``workers`` (default: the cores), never more than the records."""
+    if workers is not None and workers < 1:
+        raise UserError(f"workers must be at least 1, got {workers}")
+    wanted = workers if workers is not None else (os.cpu_count() or 1)
+    return max(1, min(wanted, n_records))
+
+
+def crashed(spec, exc: BaseException) -> RecordResult:
+    """The failed result of a record whose job raised or whose worker died."""
+    where = getattr(spec, "path", None) or getattr(spec, "name", None) or str(spec)
+    reason = " ".join(f"{where}: processing crashed ({type(exc).__name__}: {exc})".split())
+    return RecordResult(name=getattr(spec, "name", str(spec)), source=str(where), error=reason)
+
+
+@contextmanager
+def limit_native_threads() -> Iterator[None]:
+    """One BLAS/OpenMP thread while the block runs (threadpoolctl).
+
+    Many tiny least-squares problems: native thread pools cost more than they save
+    (measured: a single process ran 2.7x slower with OpenBLAS threads on 2 cores,
+    BENCHMARKS.md) and N pool workers each with a pool oversubscribe the cores.
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        yield
+
+
+def _worker_init(owner: int) -> None:
+    """Pool worker start-up: die with ``owner``, one native thread for the worker's life."""
+    guard_worker(owner)
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1)
+
+
+def timed(job: Job, spec, cfg) -> tuple[Any, float]:
+    """``(job(spec, cfg), seconds)``: what a worker sends back (module-level: picklable)."""
+    t0 = time.perf_counter()
+    return job(spec, cfg), time.perf_counter() - t0
+
+
+# -- executors ---------------------------------------------------------------------------
+
+def _run_inline(specs: list, cfg, job: Job, tracker: Tracker) -> list:
+    out = []
+    with limit_native_threads():
+        for spec in specs:
+            tracker.start(getattr(spec, "name", str(spec)))
+            t0 = time.perf_counter()
+            try:
+                result = job(spec, cfg)
+            except Exception as exc:  # the job's contract is broken; keep the batch going
+                stop = interruption(exc)  # a signal that came wrapped: not the record's
+                if stop is not None:
+                    raise stop from None
+                result = crashed(spec, exc)
+            tracker.done(result, time.perf_counter() - t0)
+            out.append(result)
+    return out
+
+
+def pool_context(draws: bool = False) -> multiprocessing.context.BaseContext:
+    """``forkserver`` where available (Linux, macOS), else ``spawn``: no fork of a
+    threaded parent.
+
+    The fork server imports ``pipeline.run`` once (numpy, scipy, polars ... take seconds),
+    and ``pipeline.report.build`` (matplotlib, another second) when the pool will
+    ``draws`` the report's plots; every worker is forked from it with the modules loaded.
+    The server lives as long as this process (its modules are those of its start). It and
+    the resource tracker are started with stdout and stderr on /dev/null
+    (:func:`pipeline.batch.interrupt.output_detached`): a helper must never hold the caller's
+    pipes (``out=$(pipeline run ...)`` would hang).
+    """
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["pipeline.batch.forkserver_guard", "pipeline.run",
+                                *(["pipeline.report.build"] if draws else [])])
+    from multiprocessing import forkserver
+
+    from .forkserver_guard import OWNER_ENV
+
+    os.environ[OWNER_ENV] = str(os.getpid())  # the server's guard dies with this process
+    with output_detached():
+        forkserver.ensure_running()
+    return ctx
+
+
+@contextlib.contextmanager
+def local_pool(workers: int | None, n_items: int,
+               draws: bool = False) -> Iterator[ProcessPoolExecutor | None]:
+    """A process pool of :func:`resolve_workers` workers, or None when that is one;
+    ``draws``: it will also draw plots (:func:`pool_context`).
+
+    Leaving the block normally waits for the pool; leaving it by an exception (an
+    :class:`~pipeline.batch.interrupt.Interrupted` included) cancels the queued work and
+    terminates the workers at once.
+    """
+    n = resolve_workers(workers, n_items)
+    if n == 1:
+        yield None
+        return
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=pool_context(draws),
+                               initializer=_worker_init, initargs=(os.getpid(),))
+    try:
+        yield pool
+    except BaseException:
+        terminate(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def terminate(pool: ProcessPoolExecutor) -> None:
+    """Cancel the queued futures and end the workers now (SIGTERM, then SIGKILL).
+
+    ``ProcessPoolExecutor`` has no public way to stop running work before Python 3.14
+    (``terminate_workers``); its ``_processes`` map is the documented-in-source handle.
+    """
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    deadline = time.monotonic() + 2.0
+    for p in procs:
+        with contextlib.suppress(Exception):
+            p.join(max(0.0, deadline - time.monotonic()))
+            if p.is_alive():
+                p.kill()
+                p.join(1.0)
+
+
+def _run_pool(specs: list, cfg, job: Job, pool: ProcessPoolExecutor, tracker: Tracker) -> list:
+    """Records in a process pool; the parent works too while the workers start.
+
+    Starting the workers costs seconds (the fork server imports numpy, scipy, polars).
+    Instead of waiting, the parent takes the last queued records itself (a pending future
+    can be cancelled and run here), but only until a worker has finished its first
+    record: from then on the parent would only compete with the workers for the cores.
+    Results are the same either way (pure per-record jobs).
+    """
+    out: list = [None] * len(specs)
+    futures: dict[Future, int] = {pool.submit(timed, job, spec, cfg): i
+                                  for i, spec in enumerate(specs)}
+    workers_up: list[bool] = []
+    for fut in futures:
+        fut.add_done_callback(lambda f: workers_up.append(not f.cancelled()))
+    stolen = set()
+    for fut in reversed(list(futures)):
+        if any(workers_up) or not fut.cancel():
+            break
+        i = futures[fut]
+        stolen.add(fut)
+        out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
+    for fut in as_completed([f for f in futures if f not in stolen]):
+        i = futures[fut]
+        try:
+            out[i], seconds = fut.result()
+        except Exception as exc:  # a worker died (BrokenProcessPool) or the job raised
+            out[i], seconds = crashed(specs[i], exc), None
+        tracker.done(out[i], seconds)
+    return out
+
+
+@contextlib.contextmanager
+def parallel_map(pool: ProcessPoolExecutor | None, n_items: int, min_items: int = 8):
+    """A ``map`` for pure, picklable per-record work (e.g. a record's report section):
+    ``pool``'s ``map`` (the batch's pool, used again) when there is one and enough items,
+    else the built-in ``map`` in this process."""
+    if pool is None or n_items < min_items:
+        yield map
+        return
+    n = max(1, getattr(pool, "_max_workers", 1))
+    yield lambda f, *its: pool.map(f, *its, chunksize=max(1, n_items // (4 * n)))
+
+
+def probe_scheduler(address: str, timeout: float = 5.0) -> None:
+    """A :class:`UserError` at once for a ``tcp://HOST:PORT`` address that is malformed or
+    refuses connections (``Client`` would retry for its whole timeout); other schemes are
+    left to Dask."""
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if not host or port is None:
+        raise UserError(f"--scheduler {address!r}: expected a Dask scheduler address like "
+                        "tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise UserError(f"cannot reach the Dask scheduler at {address}: "
+                        f"{exc.strerror or exc}") from None
+
+
+def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracker) -> list:
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise UserError(f"the dask executor needs dask.distributed; {DASK_HINT}") from None
+    if scheduler:
+        probe_scheduler(scheduler)
+    try:
+        client = Client(scheduler, timeout="20s") if scheduler else Client()
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UserError(f"cannot reach the Dask scheduler at {scheduler}: "
+                        f"{type(exc).__name__}: {exc}") from None
+    with client:
+        cfg_future = client.scatter(cfg, broadcast=True)
+        futures = client.map(timed, [job] * len(specs), specs, cfg=cfg_future, pure=False)
+        index = {fut.key: i for i, fut in enumerate(futures)}
+        out: list = [None] * len(specs)
+        for fut in dask_completed(futures):
+            i = index[fut.key]
+            try:
+                out[i], seconds = fut.result()
+            except Exception as exc:  # the job raised on the worker, or the worker died
+                out[i], seconds = crashed(specs[i], exc), None
+            tracker.done(out[i], seconds)
+            fut.release()
+        return out

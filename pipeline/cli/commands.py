@@ -1,0 +1,399 @@
+"""The ``pipeline`` command (Typer). Thin: parse, call the library, print.
+
+One error handler (:func:`handled`) turns a :class:`~pipeline.errors.UserError` into one
+line on stderr and :attr:`ExitCode.USER_ERROR`; the exit codes are
+:class:`~pipeline.errors.ExitCode` (DESIGN.md).
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from ..errors import ExitCode, UserError
+from ..quoting import printable
+from ..version import __version__
+from .data import with_data_options
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Batch system identification from step and impulse tests.")
+datasets_app = typer.Typer(no_args_is_help=True, help="The public dataset registry.")
+baseline_app = typer.Typer(no_args_is_help=True, help="Regression baselines.")
+app.add_typer(datasets_app, name="datasets")
+app.add_typer(baseline_app, name="baseline")
+
+out = Console(highlight=False, soft_wrap=True)
+err = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+def handled(command):
+    """The one error handler: a user error is one stderr line and exit code 2."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except UserError as exc:
+            error_line(exc.message)
+            raise typer.Exit(ExitCode.USER_ERROR) from None
+
+    return wrapper
+
+
+def error_line(message: str) -> None:
+    """One ``error: ...`` line on stderr, control characters from file and topic names
+    shown as escapes (a terminal escape sequence in a name reaches the terminal inert)."""
+    err.print(f"error: {printable(message)}", markup=False)
+
+
+def _version(value: bool) -> None:
+    if value:
+        out.print(f"pipeline {__version__}", markup=False)
+        raise typer.Exit(ExitCode.OK)
+
+
+@app.callback()
+def main(version: Annotated[bool, typer.Option(
+        "--version", callback=_version, is_eager=True, help="print the version and exit")]
+        = False) -> None:
+    """Batch system identification from step and impulse tests."""
+    from ..log import configure
+
+    configure()  # every command: library warnings only with run --verbose
+
+
+def stoppable(command):
+    """SIGTERM and SIGINT stop the command cleanly (:mod:`pipeline.batch.interrupt`): its
+    ``finally`` blocks run (workers ended, temporary folders removed), one line says so,
+    and the exit code is 128 + the signal (143, 130)."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        from ..batch import handle_signals, interruption
+
+        with handle_signals():
+            try:
+                return command(*args, **kwargs)
+            except BaseException as caught:
+                if (exc := interruption(caught)) is None:  # it may come wrapped (an import)
+                    raise
+                err.print(f"interrupted by {exc.name}: stopped, workers ended; nothing "
+                          "half-written (the previous report kept, or the new one complete "
+                          "when the signal came while it was put in place)", markup=False)
+                raise typer.Exit(exc.exit_code) from None
+
+    return wrapper
+
+
+# -- run ---------------------------------------------------------------------------------
+
+@app.command()
+@stoppable
+@handled
+def run(
+    config: Annotated[Path, typer.Argument(help="YAML run configuration")],
+    out_dir: Annotated[Path | None, typer.Option("--out", help="output folder")] = None,
+    workers: Annotated[int | None, typer.Option(help="parallel processes (default: cores)")] = None,
+    executor: Annotated[str, typer.Option(help="local or dask")] = "local",
+    scheduler: Annotated[str | None, typer.Option(help="Dask scheduler address")] = None,
+    baseline: Annotated[Path | None, typer.Option(help="earlier results.json to compare")] = None,
+    junit: Annotated[Path | None, typer.Option(help="write JUnit XML here")] = None,
+    history: Annotated[Path | None, typer.Option(help="parquet history to append to")] = None,
+    allow_failures: Annotated[bool, typer.Option(help="exit 0 although some records failed")]
+    = False,
+    progress: Annotated[bool | None, typer.Option(help="progress bar (default: on a terminal)")]
+    = None,
+    param_tol: Annotated[float, typer.Option(help="gain drift tolerance (dynamics: 3x)")]
+    = 0.05,
+    mse_tol: Annotated[float, typer.Option(help="validation MSE growth tolerance")] = 0.10,
+    tol: Annotated[list[str] | None, typer.Option(
+        help="per-parameter tolerance, e.g. --tol T=0.1 (repeatable)")] = None,
+    quiet: Annotated[bool, typer.Option(
+        "--quiet", "-q", help="errors only on stderr (no progress bar)")] = False,
+    verbose: Annotated[bool, typer.Option(
+        "--verbose", "-v", help="each record's time (its stages when it runs in this "
+                                "process), each report step, library warnings, on stderr")]
+    = False,
+) -> None:
+    """Identify and validate every record a config names; write results.json and reports.
+
+    SIGTERM or Ctrl-C stops the run cleanly: the workers end, nothing half-written is
+    left, an earlier report in --out is kept; the exit code is 143 (SIGTERM) or 130.
+    """
+    from .run_command import run_command
+
+    outcome = run_command(config, out_dir, workers, executor, scheduler, baseline, junit,
+                          history, progress, param_tol, mse_tol, tol, quiet, verbose)
+    for line in outcome.run.failures:
+        error_line(line)
+    for line in outcome.messages:
+        out.print(printable(line), markup=False)
+    code = outcome.exit_code
+    if code == ExitCode.SOME_FAILED and allow_failures:
+        code = ExitCode.OK
+    raise typer.Exit(code)
+
+
+# -- identify / segment ------------------------------------------------------------------
+
+def _list_arg(values: list[str] | None) -> list[str]:
+    """``--x a,b`` and ``--x a --x b`` alike."""
+    return [v.strip() for item in values or [] for v in item.split(",") if v.strip()]
+
+
+def _events_arg(text: str) -> tuple[int, ...] | str:
+    if text.strip() == "all":
+        return "all"
+    try:
+        events = tuple(int(x) for x in _list_arg([text]))
+    except ValueError:
+        events = ()
+    if not events or min(events) < 0:
+        raise UserError(f"--events {text!r}: expected 'all' or indices >= 0 like 0,2")
+    return events
+
+
+def _methods_arg(values: list[str] | None) -> tuple[str, ...] | str:
+    from ..methods import REGISTRY
+
+    ids = _list_arg(values)
+    unknown = [m for m in ids if m != "all" and m not in REGISTRY]
+    if unknown:
+        raise UserError(f"--method {unknown[0]!r}: unknown; see `pipeline methods`")
+    return "all" if not ids or "all" in ids else tuple(ids)
+
+
+FileArg = Annotated[Path, typer.Argument(
+    help="a log: .csv/.tsv/.txt, .dat, .mat, .xlsx, .parquet/.feather/.arrow or .mcap")]
+
+
+@app.command(context_settings={"allow_extra_args": True})
+@stoppable
+@handled
+@with_data_options
+def identify(
+    ctx: typer.Context,
+    file: FileArg,
+    data,
+    method: Annotated[list[str] | None, typer.Option(
+        "--method", help="method ids, 'all' (default): --method a,b or --method a --method b")]
+    = None,
+    events: Annotated[str, typer.Option(help="identification events: 'all' or 0,2")] = "0",
+    consistency: Annotated[bool | None, typer.Option(
+        "--consistency/--no-consistency",
+        help="identify every step on its own and compare (default: with 3 steps or more)")]
+    = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print results JSON to stdout")]
+    = False,
+    out_dir: Annotated[Path | None, typer.Option("--out", help="also write reports here")]
+    = None,
+) -> None:
+    """Identify models from one log and print them ranked (or as JSON)."""
+    from ..analysis import AnalysisOptions
+    from ..run import identify_file, identify_json
+
+    if ctx.args:
+        raise UserError(f"unexpected argument {ctx.args[0]!r}: give several methods or events "
+                        "with commas (--method first_order,smith, --events 0,2) or repeat "
+                        "the option (--method first_order --method smith)")
+    options = AnalysisOptions(events=_events_arg(events), methods=_methods_arg(method),
+                              consistency=consistency)
+    if as_json:
+        sys.stdout.write(identify_json(file, data, options, out_dir=out_dir))
+        return
+    run_ = identify_file(file, data, options, out_dir=out_dir)
+    _print_ranking(run_.records[0])
+    if out_dir is not None:
+        out.print(f"reports written to {out_dir}/ (report.html, report.md, results.json)")
+
+
+VERDICT_STYLE = {"ok": "bold green", "warning": "bold yellow", "unreliable": "bold red",
+                 "failed": "bold red"}
+
+
+def _rich(t, columns: list[str] | None = None, title: str = "") -> Table:
+    """A report table (:class:`pipeline.report.tables.Table`) for the terminal, with only
+    ``columns`` (by name) when given; verdicts in colour."""
+    keep = [k for k, c in enumerate(t.columns) if columns is None or c in columns]
+    verdicts = [k for k in keep if t.rows and t.rows[0][k].kind == "verdict"]
+    tab = Table(title=title or None)
+    for k in keep:
+        tab.add_column(t.columns[k], no_wrap=t.columns[k] in ("method", "verdict"))
+    if verdicts:
+        tab.add_column("flags", overflow="fold")
+    for row in t.rows:
+        cells = []
+        for k in keep:
+            c = row[k]
+            style = VERDICT_STYLE.get(c.text) if c.kind == "verdict" else None
+            text = escape(printable(c.text))
+            cells.append(f"[{style}]{text}[/]" if style else text)
+        if verdicts:
+            cells.append(escape(printable(row[verdicts[0]].note)).replace(", ", " "))
+        tab.add_row(*cells)
+    return tab
+
+
+def _print_ranking(res) -> None:
+    """The recommended model first (units, intervals, verdict, flags), then each event's
+    ranking with verdicts: the same tables as the report."""
+    from ..report import ranking_table, recommended_box
+
+    box = recommended_box(res)
+    if box is not None:
+        head = "Recommended model" if box["recommended"] else "Best-ranked model"
+        style = VERDICT_STYLE.get(box["verdict"], "bold")
+        out.print(f"{head} for {escape(printable(res.name))}: [{style}]{box['verdict']}[/]")
+        out.print(f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
+                  f"validation fit {box['fit']} %, MSE {box['mse']})", markup=False)
+        out.print(_rich(box["params"]))
+        for f in box["flags"]:
+            out.print(f"  [{VERDICT_STYLE[f['severity']]}]{f['code']}[/] "
+                      f"{escape(printable(f['message']))}")
+        out.print(f"  why: {box['reason']}", markup=False)
+    has_val = bool(res.validation_events)
+    crit = "MSE (valid.)" if has_val else "ISE (ident.)"
+    columns = ["rank", "method", "verdict", "parameters", crit] + (
+        ["fit % (valid.)"] if has_val else [])
+    for i in res.identification_events:
+        out.print(_rich(ranking_table(res, i), columns,
+                        title=escape(printable(f"{res.name}: event {i}, ranked by {crit}"))))
+        for f in res.fits:
+            if f.event == i and not f.ok:
+                out.print(printable(f"  {f.method}: {f.status}: {f.reason}"), markup=False)
+
+
+@app.command()
+@handled
+@with_data_options
+def segment(
+    file: FileArg,
+    data,
+    as_json: Annotated[bool, typer.Option("--json", help="print JSON")] = False,
+) -> None:
+    """Print the step and impulse events found in a log."""
+    import json
+
+    from ..io import load_record
+    from ..report import fmt, response_text
+    from ..results import event_doc
+    from ..segmentation import segment as find_events
+
+    record = load_record(file, data)
+    events = find_events(record)
+    if as_json:
+        docs = [event_doc(e, "unused").model_dump(mode="json", exclude={"role"})
+                for e in events]
+        sys.stdout.write(json.dumps(docs, indent=1) + "\n")
+        return
+    tab = Table(title=escape(printable(f"{record.name}: {len(events)} event(s)")))
+    for col in ("#", "kind", "t0", "t_end", "u0", "u_ss / area", "y0", "y_ss", "response",
+                "settled"):
+        tab.add_column(col)
+    for e in events:
+        tab.add_row(str(e.index), e.kind, fmt(e.t0), fmt(e.t_end), fmt(e.u0),
+                    fmt(e.u_ss) if e.kind == "step" else f"A={fmt(e.area)}", fmt(e.y0),
+                    fmt(e.y_ss), response_text(e, record),
+                    "yes" if e.settled else "no (still moving)")
+    out.print(tab)
+
+
+@app.command()
+def methods() -> None:
+    """List the identification methods: id, event kind, model structures, reference."""
+    from .catalogue import catalogue  # metadata only: no scipy to start
+
+    tab = Table(title="Methods")
+    tab.add_column("id", no_wrap=True)
+    for col in ("event", "structures", "title", "reference"):
+        tab.add_column(col)
+    for m in catalogue():
+        tab.add_row(m["id"], m["event"], ", ".join(m["structures"]), m["title"],
+                    m["citation"])
+    out.print(tab)
+
+
+@app.command()
+def schema() -> None:
+    """Print the JSON Schema of results.json."""
+    from ..schema import json_schema_text
+
+    sys.stdout.write(json_schema_text())
+
+
+@app.command()
+@handled
+def inspect(file: Annotated[Path, typer.Argument(help="an .mcap log")]) -> None:
+    """Topics, schemas, encodings, counts, time span and numeric fields of an MCAP log."""
+    from ..io import format_inspect, inspect_mcap
+
+    out.print(format_inspect(inspect_mcap(file)))
+
+
+# -- datasets ----------------------------------------------------------------------------
+
+@datasets_app.command("list")
+@handled
+def datasets_list() -> None:
+    """The registered public datasets."""
+    from ..io import load_registry
+
+    reg = load_registry()
+    tab = Table(title="Datasets")
+    tab.add_column("name", no_wrap=True)
+    for col in ("title", "format", "signals"):
+        tab.add_column(col)
+    tab.add_column("source", overflow="fold")
+    for ds in reg.values():
+        tab.add_row(ds.name, ds.title, ds.format, f"{ds.input} -> {ds.output}", ds.url)
+    out.print(tab)
+
+
+@datasets_app.command("fetch")
+@handled
+def datasets_fetch(name: Annotated[str, typer.Argument(help="dataset name")]) -> None:
+    """Fetch a dataset into the local cache (sha256 checked)."""
+    from ..io import fetch
+
+    out.print(str(fetch(name)), markup=False)
+
+
+@datasets_app.command("synth")
+@handled
+def datasets_synth(
+    folder: Annotated[Path, typer.Argument(help="where to write the logs")],
+    n: Annotated[int, typer.Option("--n", help="number of logs")] = 20,
+    seed: Annotated[int, typer.Option(help="random seed")] = 0,
+    gain_drift: Annotated[float, typer.Option(help="relative gain change, e.g. 0.1")] = 0.0,
+    noise_seed: Annotated[int | None, typer.Option(help="fresh noise, same plants")] = None,
+    corrupt: Annotated[int, typer.Option(help="how many of the logs to corrupt")] = 0,
+) -> None:
+    """Write synthetic step-test logs with known plants (for examples and CI)."""
+    from ..synth import write_synthetic_logs
+
+    paths = write_synthetic_logs(folder, n, seed=seed, gain_drift=gain_drift, corrupt=corrupt,
+                                 noise_seed=noise_seed)
+    out.print(f"wrote {len(paths)} logs to {folder}", markup=False)
+
+
+# -- baseline ----------------------------------------------------------------------------
+
+@baseline_app.command("accept")
+@handled
+def baseline_accept(
+    results: Annotated[Path, typer.Argument(help="a run's results.json")],
+    to: Annotated[Path, typer.Option("--to", help="baseline file")] = Path(
+        "reports/baselines/baseline.json"),
+) -> None:
+    """Promote a run's results.json to be the baseline."""
+    from ..gate import accept
+
+    accept(results, to)
+    out.print(f"baseline {to} <- {results}", markup=False)

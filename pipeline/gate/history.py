@@ -1,0 +1,146 @@
+"""Run history: one parquet file that grows by one row per record, event and method per run.
+
+Columns (one schema, :data:`SCHEMA`): ``time`` (the run, UTC), ``record``, ``event``,
+``method``, ``status``, ``structure``, ``verdict``, ``best`` (the record's ranked-best
+fit), ``recommended`` (the record's recommended model), one column per parameter of
+:data:`pipeline.models.PARAMETERS` (null when the model has no such parameter), one per
+metric of :class:`pipeline.schema.MetricsDoc` (null when not computed) and
+``pipeline_version``. A record that failed has one row with null event and method and
+status ``failed``.
+
+:func:`history_rows` is pure; :func:`append_history` reads the existing file, appends
+(polars ``concat(how="diagonal_relaxed")``, so files written by older versions with fewer
+columns still append), writes a temporary file and renames it over the old one, keeping
+the file's mode (:func:`pipeline.files.write_atomic`). A parquet file that is not a
+history (:func:`schema_problem`: a column that is not ours, or one of ours of another
+type) is refused, one line naming the file, and left untouched: appending would rewrite
+it with its types changed.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+from collections.abc import Mapping
+from datetime import UTC, datetime
+from pathlib import Path
+
+import polars as pl
+
+from ..errors import UserError
+from ..files import write_atomic
+from ..models import PARAMETERS
+from ..schema import MetricsDoc, ResultsDoc
+
+METRICS = tuple(MetricsDoc.model_fields)
+
+SCHEMA: dict[str, pl.DataType] = {
+    "time": pl.Datetime("us", "UTC"),
+    "record": pl.String(),
+    "event": pl.Int64(),
+    "method": pl.String(),
+    "status": pl.String(),
+    "structure": pl.String(),
+    "verdict": pl.String(),
+    "best": pl.Boolean(),
+    "recommended": pl.Boolean(),
+    **{p: pl.Float64() for p in PARAMETERS},
+    **{m: pl.Float64() for m in METRICS},
+    "pipeline_version": pl.String(),
+}
+
+
+def as_utc(run_time: datetime | None) -> datetime:
+    """``run_time`` in UTC; a naive time is taken as UTC, ``None`` is now."""
+    if run_time is None:
+        return datetime.now(UTC)
+    if run_time.tzinfo is None:
+        return run_time.replace(tzinfo=UTC)
+    return run_time.astimezone(UTC)
+
+
+def history_rows(results: ResultsDoc, run_time: datetime | None) -> pl.DataFrame:
+    """The rows one run adds: one per record, event and method (pure)."""
+    t = as_utc(run_time)
+    rows = []
+    for rec in results.records:
+        base = {"time": t, "record": rec.name, "pipeline_version": results.pipeline_version}
+        if rec.status != "ok":
+            rows.append({**base, "status": rec.status})
+            continue
+        for fit in rec.fits:
+            params = fit.params or {}
+            metrics = fit.metrics.model_dump()
+            key = (fit.label, fit.event)
+            rows.append({
+                **base, "event": fit.event, "method": fit.label, "status": fit.status,
+                "structure": fit.structure, "verdict": fit.verdict,
+                "best": rec.best is not None and key == (rec.best.label, rec.best.event),
+                "recommended": rec.recommended is not None
+                and key == (rec.recommended.label, rec.recommended.event),
+                **{p: _number(params.get(p)) for p in PARAMETERS},
+                **{m: _number(metrics.get(m)) for m in METRICS},
+            })
+    return pl.DataFrame(rows, schema=SCHEMA)
+
+
+def _number(v) -> float | None:
+    if isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v):
+        return float(v)
+    return None
+
+
+def append_history(path: str | os.PathLike, results: ResultsDoc,
+                   run_time: datetime | None = None) -> pl.DataFrame:
+    """Append the rows of one run (``results``: a results document) to the parquet file
+    at ``path`` (created with its folder when absent); returns the whole history."""
+    p = Path(path)
+    new = history_rows(results, run_time)
+    frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() else new
+    buf = io.BytesIO()
+    frame.write_parquet(buf)
+    write_atomic(p, buf.getvalue(), "history")
+    return frame
+
+
+def load_history(path: str | os.PathLike) -> pl.DataFrame:
+    """The history at ``path``, sorted by time (stable within a run)."""
+    p = Path(path)
+    if not p.exists():
+        raise UserError(f"{p}: history file not found")
+    try:
+        frame = pl.read_parquet(p)
+    except (OSError, pl.exceptions.PolarsError) as exc:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise UserError(f"{p}: not a readable parquet history file ({first})") from None
+    problem = schema_problem(frame.schema)
+    if problem:
+        raise UserError(f"{p}: not a pipeline history file ({problem}); expected the columns "
+                        "of a pipeline history: time (datetime, UTC), record, event, method, "
+                        "status, ..., pipeline_version")
+    return frame.sort("time", maintain_order=True)
+
+
+#: The columns every history has had since the first version.
+REQUIRED = ("time", "record", "method")
+
+
+def schema_problem(schema: Mapping[str, pl.DataType]) -> str | None:
+    """What makes ``schema`` not a history's (None when it is one): a required column
+    (:data:`REQUIRED`) missing, a column that is not in :data:`SCHEMA`, or one of ours of
+    another type. A file an older version wrote has fewer columns, never other types."""
+    missing = [c for c in REQUIRED if c not in schema]
+    if missing:
+        return f"no column {missing[0]!r}"
+    for name, dtype in schema.items():
+        if name not in SCHEMA:
+            return f"column {name[:40]!r} is not one of ours"
+        if dtype != SCHEMA[name]:
+            return f"column {name!r} is {dtype}, not {SCHEMA[name]}"
+    return None
+
+
+def run_times(frame: pl.DataFrame) -> list[datetime]:
+    """The distinct run times of a history, oldest first."""
+    return frame.get_column("time").unique().sort().to_list()

@@ -1,0 +1,16 @@
+"""Grading: every fit's verdict and the flags behind it, the per-step consistency of the
+log, the closed-loop check, and the recommended model.
+
+- :mod:`.verdicts` - the flag table and the checks that raise them, a verdict per fit;
+- :mod:`.consistency` - every step on its own, and what the steps say together (with
+  :mod:`.superposition`: one gain per step at shared dynamics);
+- :mod:`.closed_loop` - whether the log looks like a closed loop (with :mod:`.ranks`);
+- :mod:`.recommendation` - the model to use, and why.
+"""
+
+from .consistency import per_step, static_map_note
+from .recommendation import information_criteria, recommend
+from .verdicts import FLAGS, answer, grade, record_verdict
+
+__all__ = ["FLAGS", "answer", "grade", "information_criteria", "per_step", "recommend",
+           "record_verdict", "static_map_note"]

@@ -1,0 +1,367 @@
+"""Grading: a verdict for every fit, with the reasons behind it (DESIGN.md "Validation and
+grading"). A model that is wrong must never look right.
+
+Each :class:`~pipeline.fit.Flag` has a stable code (:data:`FLAGS`), a message in plain
+words with the numbers it was decided on, and a severity. The verdict is the worst
+severity among a fit's flags: ``ok`` (none), ``warning`` (use with care: the message says
+what to check) or ``unreliable`` (do not use the model). Record-level findings (a closed
+loop, per-event gains that disagree) are attached to every fit of the record, since they
+undermine all of them.
+
+The checks are pure functions of the record, its events and the fit; every threshold is a
+named constant with its reasoning.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from ..events import Event
+from ..fit import Fit, Flag
+from ..methods import REGISTRY
+from ..models import PARAMETERS
+from ..record import Record, in_time_unit
+from ..results import RecordResult
+from .closed_loop import closed_loop_flag
+from .consistency import gain_flags
+
+#: Every flag code, with what it means (the report's legend and the docs read this).
+FLAGS: dict[str, str] = {
+    "unsettled": "the window ends before the output settles: the gain is a lower bound or "
+                 "extrapolated",
+    "baseline_not_steady": "the output was still moving before the step: y0 and the gain "
+                           "are biased",
+    "overshoot_within_noise": "the oscillation the model claims is no larger than the noise",
+    "dynamics_below_sample_time": "a time constant is shorter than the sample time: the data "
+                                  "only say it is fast",
+    "delay_clipped": "the method computed a negative dead time and set it to 0",
+    "poor_fit": "the model explains less than half of the validation data's variation",
+    "negative_fit": "the model is worse than a constant on the validation data",
+    "residuals_not_white": "the model misses the data by much more than the noise: the "
+                           "structure does not explain the response",
+    "wide_ci": "a parameter's 95 % interval is wider than the parameter itself",
+    "gain_sign_wrong": "the model's gain has the opposite sign of the step's response",
+    "closed_loop_suspected": "the input follows the output: the log looks closed-loop, not "
+                             "a step test",
+    "gain_inconsistent": "the events' gains disagree beyond their uncertainty: the plant is "
+                         "not linear (or not time-invariant) over the log",
+    "validation_misfit": "the model misses the events it did not see by much more than the "
+                         "noise: the plant does not behave the same way over the whole log",
+    "direction_asymmetry": "steps up and steps down give different gains",
+}
+
+SEVERITY_ORDER = ("ok", "warning", "unreliable")
+
+#: Validation NRMSE fit below this (percent) is a poor fit (half the variation unexplained).
+POOR_FIT_PERCENT = 50.0
+#: A refined model that has reached less than this share of its final value by the end of
+#: its window extrapolates its gain (the 95 % settling of a step response).
+SETTLED_SHARE = 0.95
+#: A model that explains less than this share (NRMSE fit, percent) of its own event's
+#: variation is not a model of the data (unreliable); a misfit beyond the noise alone is a
+#: warning (a quantised or very smooth signal has a tiny noise and a large ratio).
+UNRELIABLE_FIT_PERCENT = 50.0
+#: A model whose RMS misfit is this many noise sigmas off explains the data structurally
+#: wrong (with the right structure the misfit is the noise: ratio ~1).
+MISFIT_RATIO = 3.0
+#: Interval half-width above this fraction of |value| is "wide" (the sign is uncertain at 1).
+WIDE_CI = 0.5
+#: A drift before the step above this share of the step's change biases the gain visibly.
+BASELINE_DRIFT = 0.02
+
+
+def verdict_of(flags: tuple[Flag, ...] | list[Flag]) -> str:
+    """The worst severity among ``flags`` ("ok" when there are none)."""
+    worst = 0
+    for f in flags:
+        worst = max(worst, SEVERITY_ORDER.index(f.severity))
+    return SEVERITY_ORDER[worst]
+
+
+def is_refined(method: str) -> bool:
+    """A least-squares refinement (fitted to the data) rather than a graphical reading
+    (the registry's ``kind``)."""
+    info = REGISTRY.get(method)
+    return info is not None and info.kind == "refinement"
+
+
+def grade(result: RecordResult) -> RecordResult:
+    """``result`` with a verdict and flags on every ok fit (pure)."""
+    if not result.ok or result.record is None:
+        return result
+    shared = record_flags(result)
+    fits = []
+    for f in result.fits:
+        if not f.ok or f.model is None:
+            fits.append(f)
+            continue
+        flags = tuple(fit_flags(f, result)) + shared
+        fits.append(replace(f, flags=flags, verdict=verdict_of(flags)))
+    return replace(result, fits=fits, flags=shared)
+
+
+def answer(res: RecordResult) -> Fit | None:
+    """The fit a record's report leads with: the recommended one, else the ranked best."""
+    return res.recommended or res.best
+
+
+def record_verdict(res: RecordResult) -> str:
+    """"failed" for a record that could not be analysed, else the answer's verdict (with
+    the record-level flags), "unreliable" when there is no model at all."""
+    if not res.ok:
+        return "failed"
+    fit = answer(res)
+    if fit is None:
+        return "unreliable"
+    return fit.verdict or verdict_of(fit.flags + res.flags)
+
+
+# -- record level ------------------------------------------------------------------------
+
+def record_flags(result: RecordResult) -> tuple[Flag, ...]:
+    """Findings about the whole log (attached to every fit)."""
+    out = []
+    cl = closed_loop_flag(result.record, result.events)
+    if cl is not None:
+        out.append(cl)
+    if result.consistency is not None:
+        units = result.record.units
+        unit = f"{units['output']}/{units['input']}" if units.get("output") and \
+            units.get("input") else ""
+        out.extend(gain_flags(list(result.consistency.estimates), unit))
+    return tuple(out)
+
+
+# -- fit level ---------------------------------------------------------------------------
+
+def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
+    """The flags of one ok fit (see :data:`FLAGS`)."""
+    rec = result.record
+    ev = result.events[fit.event]
+    checks = (_unsettled, _baseline, _below_sample_time, _delay_clipped, _fit_quality,
+              _misfit, _gain_sign, _wide_ci, _overshoot_in_noise, _undershoot_unmodelled)
+    out = [f for check in checks if (f := check(fit, ev, rec)) is not None]
+    held_out = [result.events[i] for i in result.validation_events]
+    vm = _validation_misfit(fit, held_out, rec)
+    return out + ([vm] if vm is not None else [])
+
+
+def _validation_misfit(fit: Fit, held_out: list[Event], rec: Record) -> Flag | None:
+    """The validation RMS error beyond :data:`MISFIT_RATIO` times the validation events'
+    noise: a model right for its own event that does not carry to the others (an
+    operating-point-dependent gain or dynamics, a drift)."""
+    mse = fit.metrics.get("mse_validation", math.nan)
+    noise = float(np.mean([e.noise for e in held_out])) if held_out else 0.0
+    if not math.isfinite(mse) or noise <= 0:
+        return None
+    ratio = math.sqrt(mse) / noise
+    if ratio <= MISFIT_RATIO:
+        return None
+    return Flag("validation_misfit", f"On the events it did not see the model misses the "
+                f"data by {ratio:.1f} times the noise (RMS {math.sqrt(mse):.3g}"
+                f"{_unit_of_output(rec)}): the plant does not behave the same way over the "
+                "whole log (a gain or dynamics that change with the operating point, or a "
+                "drift); trust it near the conditions it was identified at.",
+                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": noise})
+
+
+def _unit(name: str, rec: Record, fit: Fit) -> str:
+    p = PARAMETERS.get(name)
+    u = p.unit(rec.units, integrating=fit.model.spec.integrating) if p else ""
+    return f" {u}" if u else ""
+
+
+def _t(seconds: float, rec: Record) -> str:
+    """A duration in the user's time unit, e.g. ``"12.5 min"``."""
+    unit = rec.units.get("time") or "s"
+    return f"{in_time_unit(seconds, rec.units.get('time')):.3g} {unit}"
+
+
+def _unsettled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """Graphical: the window did not settle (segmentation). Refined: the model itself has
+    not reached :data:`SETTLED_SHARE` of its final value by the window's end, so its gain
+    is an extrapolation (an integrating model never settles: no flag)."""
+    if ev.kind != "step":
+        return None
+    window = float(rec.t[ev.i_end - 1] - ev.t0)
+    if is_refined(fit.method):
+        if fit.model.spec.integrating or fit.model.K == 0:
+            return None
+        share = float(fit.model.unit_step(np.array([window]))[0] / fit.model.K)
+        if share >= SETTLED_SHARE:
+            return None
+        return Flag("unsettled", f"By the end of the window ({_t(window, rec)} after the "
+                    f"step) the model has reached {share:.0%} of its final value: the gain is "
+                    "extrapolated beyond the data.", {"window": window, "share": share})
+    if ev.settled:
+        return None
+    K = fit.model.K
+    return Flag("unsettled", f"The window ends {_t(window, rec)} after the step, before the "
+                f"output settles: the gain K = {K:.4g}{_unit('K', rec, fit)} is read from a "
+                "level that is still moving (a lower bound of the true gain).",
+                {"window": window, "K": K})
+
+
+def _baseline(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """A trend in the stretch before t0 larger than its noise and than BASELINE_DRIFT of the
+    change (a refined fit that carried or estimated the initial state is exempt)."""
+    if is_refined(fit.method) and fit.diagnostics.get("initial_state", "rest") != "rest":
+        return None
+    if fit.model.spec.integrating:  # read against the baseline's drift line, not a level
+        return None
+    t, y = rec.t[ev.i_base:ev.i_start], rec.y[ev.i_base:ev.i_start]
+    dy = ev.y_ss - ev.y0
+    if t.size < 10 or dy == 0:
+        return None
+    slope = float(np.polyfit(t - t[0], y, 1)[0])
+    drift = abs(slope) * float(t[-1] - t[0])
+    noise_limit = 4.0 * ev.noise * math.sqrt(12.0 / t.size)  # 4 sigma of a fitted slope
+    if drift <= max(noise_limit, BASELINE_DRIFT * abs(dy)):
+        return None
+    return Flag("baseline_not_steady", f"The output drifts by {drift:.3g}"
+                f"{_unit_of_output(rec)} ({drift / abs(dy):.0%} of the step's change) over the "
+                f"{_t(float(t[-1] - t[0]), rec)} before the step: the baseline is not steady, "
+                "so y0 and "
+                "the gain are biased.", {"drift": drift, "share": drift / abs(dy)})
+
+
+def _unit_of_output(rec: Record) -> str:
+    u = rec.units.get("output")
+    return f" {u}" if u else ""
+
+
+def _below_sample_time(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    dt = rec.sample_time or float(np.median(np.diff(rec.t)))
+    p = fit.model.params
+    times = {k: abs(float(p[k])) for k in p if PARAMETERS.get(k) and
+             PARAMETERS[k].kind == "time" and k != "delay" and float(p[k]) != 0.0}
+    if "wn" in p and p["wn"] > 0:
+        times["1/wn"] = 1.0 / float(p["wn"])
+    fast = {k: v for k, v in times.items() if v < dt}
+    if not fast:
+        return None
+    k, v = min(fast.items(), key=lambda kv: kv[1])
+    return Flag("dynamics_below_sample_time", f"{k} = {_t(v, rec)} is shorter than the "
+                f"sample time {_t(dt, rec)}: the data only say this part of the response is faster "
+                "than the sampling, not how fast.", {"parameter": k, "value": v,
+                                                     "sample_time": dt})
+
+
+def _delay_clipped(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    d = fit.diagnostics
+    raw = next((d[k] for k in ("delay_computed", "delay_implied")
+                if isinstance(d.get(k), int | float)), None)
+    if raw is None or raw >= 0 or fit.model.delay > 0:
+        return None
+    return Flag("delay_clipped", f"The method computed a negative dead time "
+                f"({_t(float(raw), rec)}) "
+                "and set it to 0: the response starts faster than the model's shape allows.",
+                {"delay_computed": float(raw)})
+
+
+def _fit_quality(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    fp = fit.metrics.get("fit_percent", math.nan)
+    if not math.isfinite(fp):
+        return None
+    if fp < 0:
+        return Flag("negative_fit", f"Validation fit {fp:.0f} %: on the events it did not "
+                    "see, the model is worse than a constant at the mean.",
+                    {"fit_percent": fp}, severity="unreliable")
+    if fp < POOR_FIT_PERCENT:
+        return Flag("poor_fit", f"Validation fit {fp:.0f} %: the model explains less than "
+                    "half of the validation data's variation.", {"fit_percent": fp})
+    return None
+
+
+def _misfit(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """The error on the model's own event against the noise (a refinement's own fit error,
+    at its fitted operating point; a reading's simulated from the event's). Beyond
+    :data:`MISFIT_RATIO` sigmas a warning; unreliable when the model explains less than
+    :data:`UNRELIABLE_FIT_PERCENT` of the window's variation (NRMSE fit)."""
+    mse = fit.diagnostics.get("mse_fit") if is_refined(fit.method) else None
+    mse = float(mse) if isinstance(mse, int | float) else fit.metrics.get(
+        "mse_identification", math.nan)
+    if not math.isfinite(mse) or ev.noise <= 0:
+        return None
+    ratio = math.sqrt(mse) / ev.noise
+    if ratio <= MISFIT_RATIO:
+        return None
+    spread = float(np.std(rec.y[ev.i_start:ev.i_end]))
+    fit_pct = 100.0 * (1.0 - math.sqrt(mse) / spread) if spread > 0 else math.nan
+    bad = not fit_pct >= UNRELIABLE_FIT_PERCENT
+    return Flag("residuals_not_white", f"On its own event the model misses the data by "
+                f"{ratio:.1f} times the noise level (RMS {math.sqrt(mse):.3g}"
+                f"{_unit_of_output(rec)}, fit {fit_pct:.0f} %): the residuals are structure, "
+                "not noise" + (" - this is not a model of the data." if bad else "."),
+                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": ev.noise,
+                 "fit_percent": fit_pct}, severity="unreliable" if bad else "warning")
+
+
+def _gain_sign(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """A self-regulating model whose gain has the opposite sign of the step's response."""
+    if ev.kind != "step" or fit.model.spec.integrating or ev.u_ss == ev.u0 \
+            or abs(ev.y_ss - ev.y0) <= 3 * ev.noise:
+        return None
+    seen = (ev.y_ss - ev.y0) / (ev.u_ss - ev.u0)
+    if fit.model.K * seen > 0:
+        return None
+    return Flag("gain_sign_wrong", f"The model's gain ({fit.model.K:.3g}) has the opposite "
+                f"sign of the step's response ({seen:+.3g}{_unit('K', rec, fit)}): the model is "
+                "wrong.", {"K": fit.model.K, "step_gain": seen}, severity="unreliable")
+
+
+def _wide_ci(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    wide = {}
+    for k, (lo, hi) in fit.ci95.items():
+        v = float(fit.model.params.get(k, math.nan))
+        if k == "delay" or not (math.isfinite(v) and v != 0 and lo is not None and
+                                hi is not None):
+            continue
+        half = (float(hi) - float(lo)) / 2.0
+        if half > WIDE_CI * abs(v):
+            wide[k] = half / abs(v)
+    if not wide:
+        return None
+    k = max(wide, key=wide.get)
+    w = wide[k]
+    size = (f"{w:.0%} of its value" if w < 10 else f"{w:.0f} times its value" if w < 1e6
+            else f"{w:.2g} times its value")
+    return Flag("wide_ci", f"The 95 % interval of {k} is ±{size}: the data do not determine "
+                "it.", {"parameter": k, "relative_half_width": wide[k]})
+
+
+def _overshoot_in_noise(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    p = fit.model.params
+    if fit.model.structure != "second_order" or p["zeta"] >= 1 or ev.kind != "step":
+        return None
+    z = float(p["zeta"])
+    M = math.exp(-z * math.pi / math.sqrt(1.0 - z * z))
+    peak = M * abs(ev.y_ss - ev.y0)
+    if peak > 3.0 * ev.noise:
+        return None
+    return Flag("overshoot_within_noise", f"The model's overshoot ({peak:.3g}"
+                f"{_unit_of_output(rec)}, zeta = {z:.2g}) is within three noise sigmas "
+                f"({ev.noise:.3g}): the data do not show that oscillation.",
+                {"overshoot": peak, "noise": ev.noise, "zeta": z})
+
+
+def _undershoot_unmodelled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
+    """The data move the wrong way first (an inverse response) and the model cannot: a
+    structure without a right-half-plane zero misses the dip whatever its fit says."""
+    if ev.kind != "step" or float(fit.model.params.get("Tz", 0.0)) < 0:
+        return None
+    from ..events import EventData
+    from ..methods import moving_the_other_way, undershoot
+
+    data = EventData.from_event(rec, ev)
+    u = undershoot(data)
+    if u is None or moving_the_other_way(data) is not None:
+        return None
+    return Flag("residuals_not_white", f"The output first moves the wrong way (by "
+                f"{u['depth']:.0%} of its change, {_t(u['t'], rec)} after the step) and a "
+                f"{fit.model.structure.replace('_', ' ')} model cannot: its residuals are "
+                "structure, not noise (an inverse response needs a zero, Tz < 0).",
+                {"undershoot": u["depth"], "t": u["t"]})

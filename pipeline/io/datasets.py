@@ -1,0 +1,168 @@
+"""The dataset registry: public datasets by name, fetched with a sha256 check.
+
+The registry ships inside the package (``pipeline/data/datasets.yaml``; the environment
+variable ``PIPELINE_DATASETS_REGISTRY`` names another file). Resolution order for
+``fetch(name)``: the download cache (the user's cache directory, e.g.
+``~/.cache/pipeline/datasets/NAME/FILE``, or ``PIPELINE_DATASETS_CACHE``), then the folder
+named by ``PIPELINE_DATASETS_MIRROR`` (``MIRROR/<mirror_path>``), then the official URL
+(decompressed when the entry says ``compression: gzip``). The sha256 is checked every
+time; the cache is written atomically. Works the same from a source checkout and from an
+installed wheel, from any folder.
+"""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import os
+import shutil
+import tempfile
+import urllib.request
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from ..errors import UserError
+from ..files import default_mode
+
+MIRROR_ENV = "PIPELINE_DATASETS_MIRROR"
+REGISTRY_ENV = "PIPELINE_DATASETS_REGISTRY"
+CACHE_ENV = "PIPELINE_DATASETS_CACHE"
+
+
+@dataclass(frozen=True)
+class Dataset:
+    name: str
+    title: str
+    url: str
+    file: str
+    sha256: str
+    format: str
+    input: str
+    output: str
+    time: str | None = None
+    columns: list[str] | None = None
+    units: dict[str, str] = field(default_factory=dict)
+    initial_input: float | None = None
+    compression: str | None = None
+    mirror_path: str | None = None
+    landing_page: str = ""
+    description: str = ""
+    citation: str = ""
+
+
+def registry_path() -> Path:
+    """The registry file: ``$PIPELINE_DATASETS_REGISTRY``, else the one in the package."""
+    env = os.environ.get(REGISTRY_ENV)
+    return Path(env) if env else Path(__file__).resolve().parent.parent / "data" / "datasets.yaml"
+
+
+def cache_dir() -> Path:
+    """Where fetched datasets are kept: ``$PIPELINE_DATASETS_CACHE``, else the user's cache
+    directory (platformdirs)."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env)
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("pipeline", appauthor=False)) / "datasets"
+
+
+def load_registry(path: Path | None = None) -> dict[str, Dataset]:
+    path = path or registry_path()
+    try:
+        raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    except FileNotFoundError:
+        raise UserError(f"{path}: dataset registry not found; set {REGISTRY_ENV} to a "
+                        "registry file") from None
+    except yaml.YAMLError as exc:
+        raise UserError(f"{path}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    out = {}
+    for name, entry in raw.items():
+        try:
+            out[name] = Dataset(name=name, **entry)
+        except TypeError as exc:
+            raise UserError(f"{path}: dataset {name!r}: {exc}") from None
+    return out
+
+
+def get(name: str) -> Dataset:
+    reg = load_registry()
+    if name not in reg:
+        raise UserError(
+            f"unknown dataset {name!r}; known datasets: {', '.join(sorted(reg)) or 'none'} "
+            "(see `pipeline datasets list`)"
+        )
+    return reg[name]
+
+
+def sha256_of(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def fetch(name: str, *, offline: bool = False) -> Path:
+    """Path of the verified local copy of dataset ``name`` (fetched if needed)."""
+    ds = get(name)
+    target = cache_dir() / ds.name / ds.file
+    if target.is_file():
+        if sha256_of(target) == ds.sha256:
+            return target
+        target.unlink()  # a corrupt cache entry is refetched, never used
+    mirror = os.environ.get(MIRROR_ENV)
+    tried = []
+    if mirror:
+        cand = Path(mirror) / (ds.mirror_path or f"{ds.name}/{ds.file}")
+        tried.append(str(cand))
+        if cand.is_file():
+            if sha256_of(cand) != ds.sha256:
+                raise UserError(
+                    f"{cand}: sha256 {sha256_of(cand)} does not match the registry's "
+                    f"{ds.sha256} for dataset {name!r}"
+                )
+            return _install(cand, target, ds)
+    if not offline:
+        tried.append(ds.url)
+        try:
+            return _download(ds, target)
+        except (OSError, ValueError) as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            tried[-1] += f" ({reason})"
+    raise UserError(
+        f"dataset {name!r} is not available (tried {'; '.join(tried) or 'nothing'}); download "
+        f"{ds.url} yourself and set {MIRROR_ENV} to a folder holding "
+        f"{ds.mirror_path or ds.name + '/' + ds.file}"
+    )
+
+
+def _install(src: Path, target: Path, ds: Dataset) -> Path:
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".part-")
+    os.close(fd)
+    shutil.copyfile(src, tmp)
+    os.chmod(tmp, default_mode())  # mkstemp makes it 0600: the cache is shared like any file
+    os.replace(tmp, target)
+    return target
+
+
+def _download(ds: Dataset, target: Path) -> Path:
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".part-")
+    os.close(fd)
+    try:
+        with urllib.request.urlopen(ds.url, timeout=30) as resp, open(tmp, "wb") as out:
+            stream = gzip.GzipFile(fileobj=resp) if ds.compression == "gzip" else resp
+            shutil.copyfileobj(stream, out)
+        digest = sha256_of(Path(tmp))
+        if digest != ds.sha256:
+            raise ValueError(f"sha256 mismatch: got {digest}, expected {ds.sha256}")
+        os.chmod(tmp, default_mode())
+        os.replace(tmp, target)
+        return target
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)

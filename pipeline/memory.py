@@ -1,0 +1,104 @@
+"""Memory on long records: freed memory handed back to the system between the stages of a
+long record's analysis, and the chunk size of the passes that avoid record-long
+temporaries (:data:`CHUNK`).
+
+glibc's allocator keeps freed heap memory for reuse and returns it only from the top of
+the heap; a long record's analysis frees thousands of window-sized arrays (the per-step
+refinements, the per-step gains' columns) scattered through the heap, and what follows
+cannot reuse the holes for its record-long arrays (those are mapped on their own). At
+10 M samples / 2000 events the process held 585 MB more than the loaded record after the
+analysis, with 2 MB of it live; ``malloc_trim(0)`` gave back all but 35 MB, and the next
+stage's arrays then stack on the record, not on the holes (issue 14: peak memory). No
+library does this for us: numpy allocates through the C library.
+
+polars allocates through its own jemalloc (Linux), which keeps the pages a CSV parse
+freed as "dirty" for reuse: at 1 M rows the load held 101 MB after reading 24 MB of
+arrays, under every later stage's peak. :func:`polars_returns_freed_pages` asks it to
+give them back at once (:data:`POLARS_MALLOC_CONF`). The command line does it when it
+starts (``pipeline.__main__``), before polars is imported (its pool workers inherit it);
+a program that uses the library calls it first thing, or sets the variable itself.
+``import pipeline`` does not: it would change the environment of the importing program
+and of every process it starts.
+
+glibc maps an allocation on its own (and unmaps it when freed) only from a threshold up
+that it raises to the size of each mapped block freed, up to 32 MB: after the first
+freed 8 MB chunk of a chunked pass (:data:`CHUNK`), every later one comes from the heap
+and stays resident when freed, under the next stage's record-long arrays.
+:func:`large_arrays_mapped` fixes the threshold at :data:`MMAP_THRESHOLD` for the
+command's process and its pool workers (the same way: the command line calls it first).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+
+#: Samples per chunk of a pass that works a chunk at a time instead of on record-long
+#: temporaries (8 MB of float64): the chunked filter of a long simulation
+#: (:mod:`pipeline.simulation.regressors`), rankings (:mod:`pipeline.grading.ranks`), paired
+#: sums and order checks (:mod:`pipeline.grading.recommendation`), decimation
+#: (:mod:`pipeline.report.drawing`). Each gives the numbers of one whole-array pass.
+CHUNK = 1 << 20
+
+
+#: polars' jemalloc configuration (the environment variable ``_RJEM_MALLOC_CONF``, read
+#: once when polars is imported): freed pages returned to the system at once, not after
+#: a decay. Measured on the scale logs (``benchmarks/scale.py``): at 1 M rows the load's
+#: high-water mark over the imports 111 -> 64 MB, its resident set after it 101 -> 24 MB
+#: (the record's arrays), its CPU 0.21 -> 0.23 s (medians of 5); at 10 M rows 540 ->
+#: 396 MB, 340 -> 231 MB, 2.32 -> 2.46 s (the bare polars read 2.27 s: 1.08x).
+POLARS_MALLOC_CONF = "dirty_decay_ms:0"
+
+
+def polars_returns_freed_pages() -> None:
+    """Set :data:`POLARS_MALLOC_CONF` for polars, unless the user configured its
+    allocator already or polars is imported (its allocator read its configuration then:
+    setting it now would only change child processes')."""
+    if "polars" not in sys.modules:
+        os.environ.setdefault("_RJEM_MALLOC_CONF", POLARS_MALLOC_CONF)
+
+
+#: Allocations from this size up are mapped on their own and given back when freed
+#: (glibc's ``M_MMAP_THRESHOLD``, fixed: not raised by the freed blocks). Above the
+#: per-event windows' arrays (5,000 samples: 40 kB) and the search's, below a chunked
+#: pass's 8 MB. Measured with ``pipeline identify LOG --method all --events all`` on the
+#: scale logs (``benchmarks/scale.py``): see BENCHMARKS.md, "the allocator's threshold".
+MMAP_THRESHOLD = 4 << 20
+_M_MMAP_THRESHOLD = -3  # glibc's malloc.h
+
+
+def large_arrays_mapped() -> None:
+    """Fix glibc's mmap threshold at :data:`MMAP_THRESHOLD`: in this process by
+    ``mallopt``, in the processes it starts by glibc's ``MALLOC_MMAP_THRESHOLD_`` (read
+    when a process starts). Nothing where the user chose a threshold (that variable, or
+    ``GLIBC_TUNABLES``' ``glibc.malloc.mmap_threshold``: glibc applied it to this process
+    already), where the C library is not glibc, or where glibc refuses the value (a
+    32-bit build's maximum is 512 kB)."""
+    if "MALLOC_MMAP_THRESHOLD_" in os.environ or \
+            "malloc.mmap_threshold" in os.environ.get("GLIBC_TUNABLES", ""):
+        return
+    mallopt = _libc("mallopt")
+    if mallopt is not None and mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1:
+        os.environ["MALLOC_MMAP_THRESHOLD_"] = str(MMAP_THRESHOLD)
+
+
+@functools.cache
+def _libc(name: str):
+    """glibc's function ``name``, or None (another C library, another system)."""
+    if not sys.platform.startswith("linux"):
+        return None
+    import ctypes  # here: `import pipeline` (and the command line's start) without it
+
+    try:
+        return getattr(ctypes.CDLL(None), name)  # the process's own C library
+    except (OSError, AttributeError):
+        return None
+
+
+def release() -> None:
+    """Return the C heap's free pages to the system (``malloc_trim(0)``; nothing where
+    the C library has no such call). Costs about a millisecond."""
+    trim = _libc("malloc_trim")
+    if trim is not None:
+        trim(0)

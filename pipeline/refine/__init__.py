@@ -1,0 +1,27 @@
+"""Least-squares refinement: a model structure fitted to the data as a whole, with its
+operating point and initial state, and calibrated 95 % intervals.
+
+- :mod:`.refinement` - :func:`refine`, one structure over one span (variable projection,
+  a bounded trust-region search from many starts, intervals from the profiled Jacobian);
+  its pieces: the design (:mod:`.problem`), the linear solves (:mod:`.lstsq`), the
+  search space and starts (:mod:`.search`);
+- :mod:`.event` - one event alone: its window, how its initial state is treated, why a
+  structure does not apply;
+- :mod:`.joint` - one model over several events, the state carried through the record,
+  and the cross-validation folds (:mod:`.left_out`: Gauss-Newton folds beyond ten).
+"""
+
+from .event import (
+    carry_source,
+    event_states,
+    mismatch,
+    refine_event,
+    result_parts,
+    unchanged,
+)
+from .joint import fold_models, held_out_events, span_fit
+from .refinement import MIN_DOF, Refinement, RefineOptions, refine
+
+__all__ = ["MIN_DOF", "RefineOptions", "Refinement", "carry_source", "event_states",
+           "fold_models", "held_out_events", "mismatch", "refine", "refine_event",
+           "result_parts", "span_fit", "unchanged"]
