@@ -32,7 +32,7 @@ from .record import Record
 from .refine import RefineOptions, event_states, held_out_events, span_fit
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
-from .validate import balance_point, heldout_residuals, identification_residuals, score
+from .validate import heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
 MIN_WINDOW_SAMPLES = 10
@@ -122,7 +122,7 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
             fit = identify(data, mid)
         if fit.ok:
             fit = replace(fit, metrics=score(fit.model, record, events, ev, validation,
-                                             balance_point(fit)))
+                                             fit.balance_point))
         out.append(fit)
     return out
 
@@ -141,7 +141,7 @@ def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
                        options=opt.refine)
         if fit.ok:
             metrics = score(fit.model, record, events, events[ident[0]], validation,
-                            balance_point(fit))
+                            fit.balance_point)
             fit = replace(fit, metrics={**metrics, **fit.metrics})
         out.append(fit)
     return out
@@ -154,7 +154,7 @@ def _held_out(fit: Fit, record: Record, events, ident: list[int]) -> Fit:
     if not fit.ok or fit.events or "mse_cross_validation" in fit.metrics:
         return fit
     _, e = heldout_residuals(fit.model, record, events, held_out_events(ident, fit.event),
-                             balance_point(fit))
+                             fit.balance_point)
     return replace(fit, metrics={**fit.metrics, "mse_cross_validation": mse(e, 0 * e)})
 
 
@@ -175,4 +175,4 @@ def _with_information_criteria(record: Record, events, fits: list[Fit]) -> list[
 def _n_params(fit: Fit) -> int:
     """Estimated parameters of a fit: the model's, plus the offset (and the initial-state
     coefficients of a refinement)."""
-    return int(fit.diagnostics.get("n_params", len(fit.model.spec.params) + 1))
+    return fit.refinement.n_params if fit.is_refined else len(fit.model.spec.params) + 1

@@ -17,13 +17,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .schema import EventKind, Response
+
 
 @dataclass(frozen=True)
 class Event:
     """One step or impulse found in a record (DESIGN.md "Core types")."""
 
     index: int
-    kind: str  # "step" | "impulse"
+    kind: EventKind
     i_start: int
     i_end: int
     i_base: int
@@ -37,7 +39,7 @@ class Event:
     duration: float = 0.0  # impulse: how long the input stayed off its baseline
     settled: bool = True
     noise: float = 0.0  # output noise standard deviation estimate
-    response: str = "settling"  # "settling" | "ramp" | "level_shift" (pipeline.segment)
+    response: Response = "settling"  # how the output responds (pipeline.segmentation)
     slope: float = 0.0  # output slope over the last half of the window (units/s)
     drift: float = 0.0  # output slope before t0 (units/s; 0 unless significant)
     #: the change of the previous response when it was still settling at t0 (the output
@@ -55,7 +57,7 @@ class EventData:
     (:mod:`pipeline.segmentation` step 6).
     """
 
-    kind: str
+    kind: EventKind
     t: np.ndarray
     u: np.ndarray
     y: np.ndarray
@@ -69,7 +71,7 @@ class EventData:
     noise: float = 0.0
     settled: bool = True
     index: int = 0
-    response: str = "settling"
+    response: Response = "settling"
     slope: float = 0.0
     drift: float = 0.0
     tail: float = 0.0

@@ -1,15 +1,36 @@
-"""``Fit`` and ``Flag``: the outcome of one method on one event (DESIGN.md "Core types")."""
+"""``Fit``, ``Flag`` and a refinement's summary: the outcome of one method on one event
+(DESIGN.md "Core types").
+
+A graphical reading carries the points it read in ``diagnostics``; a least-squares
+refinement carries a typed :class:`RefinementSummary` in ``refinement`` (how its initial
+state was treated, its fitted operating point, its own fit error and effective sample
+size, its folds), which validation, grading and the recommendation read by attribute.
+:attr:`Fit.is_refined` is the one rule for "is this fit a refinement".
+"""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 from .models import ProcessModel
+from .schema import FitStatus, Severity, Verdict
 
-#: Fit statuses: a model, no model with the reason, or a method bug (the record goes on).
-STATUSES = ("ok", "not_applicable", "failed")
-#: Verdicts of a fit that has a model (DESIGN.md "Validation and grading").
-VERDICTS = ("ok", "warning", "unreliable")
+#: Fit statuses and verdicts, as tuples (the literals are the schema's).
+STATUSES: tuple[str, ...] = get_args(FitStatus)
+VERDICTS: tuple[str, ...] = get_args(Verdict)
+
+#: How a simulated span's initial state starts: at rest at the input level before it,
+#: "estimated" (its free response fitted), or, for an integrating structure on a steady
+#: ramp, "steady" (the lags at equilibrium, the balance point fitted).
+InitialState = Literal["rest", "estimated", "steady"]
+#: How a refinement's state was treated, as its summary tells it: one of
+#: :data:`InitialState`, or "carried" through the record from an earlier event that
+#: started at rest.
+StateTreatment = Literal["rest", "estimated", "steady", "carried"]
+#: How a cross-validation fold's model was obtained.
+Refit = Literal["exact", "gauss-newton"]
 
 
 @dataclass(frozen=True)
@@ -20,7 +41,81 @@ class Flag:
     code: str
     message: str
     values: dict[str, float | str | None] = field(default_factory=dict)
-    severity: str = "warning"  # "warning" | "unreliable": the verdict it forces at least
+    severity: Severity = "warning"  # the verdict it forces at least
+
+
+@dataclass(frozen=True)
+class Fold:
+    """One cross-validation fold of a fit over several events: the ``events`` held out,
+    the model refitted without them (``params``; ``u0`` an integrating model's balance
+    point), its error on them (``mse``) and how it was refitted."""
+
+    events: tuple[int, ...]
+    params: dict[str, float]
+    u0: float | None
+    mse: float
+    refit: Refit
+
+
+@dataclass(frozen=True)
+class RefinementSummary:
+    """What a least-squares refinement says about itself, beside its model and intervals.
+
+    ``state`` and ``carried_from`` (the event the state was carried from, when
+    "carried"); the fitted operating point (offset ``y0``, input balance point ``u0``:
+    the input level before the span, fitted only for an integrating structure off rest);
+    the fit's own error over its ``n_fit`` samples (``mse_fit``), their effective sample
+    size and variance factor (:func:`pipeline.uncertainty.variance_factor`); the
+    estimated parameters (the model's and the linear nuisances); the parameters'
+    standard errors; the search's residual evaluations and starts; how the intervals were
+    made; and the ``folds`` of a cross-validated fit over several events.
+    """
+
+    state: StateTreatment
+    y0: float
+    u0: float
+    mse_fit: float
+    n_fit: int
+    n_eff: float
+    variance_factor: float
+    n_params: int
+    std: dict[str, float]
+    nfev: int
+    runs: int
+    interval_method: str
+    carried_from: int | None = None
+    folds: tuple[Fold, ...] = ()
+
+    @property
+    def state_text(self) -> str:
+        """The state in words: "rest", "estimated", "steady", "carried from event 2"."""
+        return f"carried from event {self.carried_from}" if self.state == "carried" \
+            else self.state
+
+    @property
+    def at_rest(self) -> bool:
+        """Whether the fit assumed the plant at rest before its event."""
+        return self.state == "rest"
+
+    @property
+    def sse(self) -> float:
+        """The fit's sum of squared errors."""
+        return self.mse_fit * self.n_fit if math.isfinite(self.mse_fit) else math.nan
+
+    def as_diagnostics(self, events: tuple[int, ...] = ()) -> dict:
+        """The summary as results.json has always carried it in a fit's ``diagnostics``
+        (``events``: a fit over several events lists them there too)."""
+        out = {"initial_state": self.state_text, "y0": self.y0, "u0": self.u0,
+               "mse_fit": self.mse_fit, "n_fit": self.n_fit, "n_eff": self.n_eff,
+               "variance_factor": self.variance_factor, "n_params": self.n_params,
+               "std": dict(self.std), "nfev": self.nfev, "runs": self.runs,
+               "interval_method": self.interval_method}
+        if events:
+            out["events"] = list(events)
+        if self.folds:
+            out["folds"] = [{"events": list(f.events), "params": dict(f.params), "u0": f.u0,
+                             "mse": f.mse, "refit": f.refit} for f in self.folds]
+        return out
 
 
 @dataclass(frozen=True)
@@ -29,23 +124,39 @@ class Fit:
 
     ``ci95`` maps parameter names to 95 % intervals (refined models); ``verdict`` and
     ``flags`` are set by grading (None / empty until then); ``diagnostics`` are the points
-    the method read (t63, peaks, areas ...), in absolute record time. ``events`` are all
-    identification events of a model fitted over several of them (``event`` is the first);
-    empty for a model of one event.
+    a graphical method read (t63, peaks, areas ...), in absolute record time;
+    ``refinement`` is a least-squares refinement's summary (None for a reading).
+    ``events`` are all identification events of a model fitted over several of them
+    (``event`` is the first); empty for a model of one event.
     """
 
     method: str
     event: int
-    status: str
+    status: FitStatus
     reason: str | None = None
     model: ProcessModel | None = None
     metrics: dict[str, float] = field(default_factory=dict)
     diagnostics: dict = field(default_factory=dict)
     ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
-    verdict: str | None = None
+    verdict: Verdict | None = None
     flags: tuple[Flag, ...] = ()
     events: tuple[int, ...] = ()
+    refinement: RefinementSummary | None = None
 
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    @property
+    def is_refined(self) -> bool:
+        """Whether this fit is a least-squares refinement (fitted to all its
+        identification data, with intervals and a summary)."""
+        return self.refinement is not None
+
+    @property
+    def balance_point(self) -> float | None:
+        """The input balance point an integrating refinement fitted (its ``u0``); None
+        for any other fit."""
+        if self.model is None or not self.model.integrating or self.refinement is None:
+            return None
+        return self.refinement.u0

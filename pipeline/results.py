@@ -34,6 +34,7 @@ from .schema import (
     RecommendedDoc,
     RecordDoc,
     ResultsDoc,
+    Role,
     StaticMapDoc,
     TransferFunctionDoc,
 )
@@ -87,8 +88,8 @@ class Consistency:
 
 @dataclass(frozen=True)
 class Recommendation:
-    """The record's recommended model: which fit, and why (:func:`pipeline.grading.recommendation.
-    recommend`; grading adds the verdict). ``events``: all events of a model fitted over
+    """The record's recommended model: which fit, and why (:func:`pipeline.grading.recommend`;
+    grading adds the verdict). ``events``: all events of a model fitted over
     several (empty for a one-event fit)."""
 
     method: str
@@ -106,7 +107,7 @@ class RecordResult:
     source: str
     record: Record | None = None
     events: list[Event] = field(default_factory=list)
-    roles: dict[int, str] = field(default_factory=dict)
+    roles: dict[int, Role] = field(default_factory=dict)
     fits: list[Fit] = field(default_factory=list)
     error: str | None = None
     recommendation: Recommendation | None = None
@@ -256,7 +257,15 @@ def fit_doc(f: Fit) -> FitDoc:
         reason=f.reason,
         structure=m.structure if m else None, params=_params(m.params) if m else None,
         ci95=_ci(f.ci95), transfer_function=tf, metrics=metrics, verdict=f.verdict,
-        flags=[flag_doc(x) for x in f.flags], diagnostics=_plain(f.diagnostics))
+        flags=[flag_doc(x) for x in f.flags], diagnostics=_plain(diagnostics_of(f)))
+
+
+def diagnostics_of(f: Fit) -> dict:
+    """A fit's results.json ``diagnostics``: a reading's points, a refinement's summary
+    (:meth:`pipeline.fit.RefinementSummary.as_diagnostics`, the shape of schema 2)."""
+    if f.refinement is None:
+        return f.diagnostics
+    return {**f.diagnostics, **f.refinement.as_diagnostics(f.events)}
 
 
 def _params(p: dict) -> dict[str, float]:

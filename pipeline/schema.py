@@ -20,8 +20,17 @@ from pydantic import BaseModel, ConfigDict, Field
 SCHEMA_VERSION = "2"
 READABLE_VERSIONS = ("1", "2")
 
+# The vocabularies the results and the runtime types share (pipeline.fit, pipeline.events).
+#: A method's outcome on an event: a model, no model with the reason, or a method bug.
 FitStatus = Literal["ok", "not_applicable", "failed"]
+#: Verdict of a fit that has a model (DESIGN.md "Validation and grading").
 Verdict = Literal["ok", "warning", "unreliable"]
+#: The verdict a flag forces at least.
+Severity = Literal["warning", "unreliable"]
+EventKind = Literal["step", "impulse"]
+#: How the output responds to an event (segmentation).
+Response = Literal["settling", "ramp", "level_shift"]
+Role = Literal["identification", "validation", "unused"]
 
 
 def fit_label(method: str, event: int, events: list[int]) -> str:
@@ -43,7 +52,7 @@ class FlagDoc(_Doc):
     code: str
     message: str
     values: dict[str, float | str | None] = Field(default_factory=dict)
-    severity: Literal["warning", "unreliable"] = "warning"
+    severity: Severity = "warning"
 
 
 class TransferFunctionDoc(_Doc):
@@ -105,7 +114,7 @@ class EventDoc(_Doc):
     integrating process after a pulse); ``drift``: the output's slope before ``t0``."""
 
     index: int
-    kind: Literal["step", "impulse"]
+    kind: EventKind
     t0: float
     t_end: float
     i_start: int
@@ -118,10 +127,10 @@ class EventDoc(_Doc):
     duration: float | None = None
     settled: bool
     noise: float | None = None
-    response: Literal["settling", "ramp", "level_shift"] = "settling"
+    response: Response = "settling"
     slope: float | None = None
     drift: float | None = None
-    role: Literal["identification", "validation", "unused"] = "unused"
+    role: Role = "unused"
 
 
 class BestDoc(_Doc):

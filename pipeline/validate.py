@@ -22,9 +22,9 @@ comes is no longer scored on a false start from rest.
 An integrating model stands still only at its input balance point, which the first event's
 input level need not be (a motor that already turns): it starts on the steady ramp its
 balance point gives (:func:`ramp_before`: ``K (u0 - u_balance)`` with a refinement's
-fitted balance point, :func:`balance_point`; else the drift segmentation measured), its
-lag at equilibrium, so a ramp running before the first step is the model's, not a drift
-the warm-up has to extrapolate (and a lag started at rest off its balance would add a
+fitted balance point, :attr:`pipeline.fit.Fit.balance_point`; else the drift segmentation
+measured), its lag at equilibrium, so a ramp running before the first step is the model's,
+not a drift the warm-up has to extrapolate (and a lag started at rest off its balance would add a
 start-up transient that the warm-up's drift fit would extrapolate over the whole run).
 """
 
@@ -62,15 +62,6 @@ def event_simulation(model: ProcessModel, record: Record, ev: Event) -> np.ndarr
     sl = slice(ev.i_start, ev.i_end)
     sim = simulate(model, record, sl, ev.u0, ev.y0)
     return sim + ev.drift * (record.t[sl] - ev.t0) if model.integrating else sim
-
-
-def balance_point(fit) -> float | None:
-    """The input balance point a least-squares refinement of an integrating structure
-    fitted (its ``u0``); None for any other fit."""
-    if fit.model is None or not fit.model.integrating or "mse_fit" not in fit.diagnostics:
-        return None
-    u0 = fit.diagnostics.get("u0")
-    return None if u0 is None else float(u0)
 
 
 def ramp_before(model: ProcessModel, first: Event, balance: float | None = None) -> float:
@@ -244,7 +235,8 @@ def run_errors(sims: list[tuple[slice, np.ndarray] | None], record: Record
 def score(model: ProcessModel, record: Record, events: list[Event], ident: Event,
           validation: list[int], balance: float | None = None) -> dict[str, float]:
     """The metrics of one model (see the module docstring; ``balance``: an integrating
-    refinement's balance point, :func:`balance_point`); NaN where there is no data."""
+    refinement's balance point, :attr:`pipeline.fit.Fit.balance_point`); NaN where there is
+    no data."""
     sl = slice(ident.i_start, ident.i_end)
     y_id = record.y[sl]
     sim_id = event_simulation(model, record, ident)
@@ -267,10 +259,9 @@ def identification_residuals(fit, record: Record, ev: Event) -> tuple[float, int
     and initial state estimated), a graphical model simulated from rest at the event's
     (u0, y0) as the method assumes. The variance factor is the residuals' ``n / n_eff``
     (:func:`pipeline.uncertainty.variance_factor`)."""
-    d = fit.diagnostics
-    if "mse_fit" in d and "n_fit" in d:
-        return float(d["mse_fit"]) * int(d["n_fit"]), int(d["n_fit"]), float(
-            d.get("variance_factor", 1.0))
+    r = fit.refinement
+    if r is not None:
+        return r.mse_fit * r.n_fit, r.n_fit, r.variance_factor
     sl = slice(fit_start(ev.i_base, ev.i_start, ev.i_end), ev.i_end)
     e = record.y[sl] - simulate(fit.model, record, sl, ev.u0, ev.y0)
     return float(e @ e), int(e.size), variance_factor(e)

@@ -135,8 +135,8 @@ def test_cross_validation_beyond_ten_events_steps_and_matches_exact_refits():
     rec = make_record(t, u, y, name="stairs12", source="<stairs12>")
     res = analyse(rec, AnalysisOptions(events="all", methods=("lsq_first_order",)))
     joint = next(f for f in res.fits if f.events)
-    folds = joint.diagnostics["folds"]
-    assert [f["refit"] for f in folds] == ["gauss-newton"] * 10
+    folds = joint.refinement.folds
+    assert [f.refit for f in folds] == ["gauss-newton"] * 10
     events = segment(rec, AnalysisOptions().segmentation)
     states = event_states(rec, events)
     ident = list(range(len(events)))
@@ -147,8 +147,8 @@ def test_cross_validation_beyond_ten_events_steps_and_matches_exact_refits():
     errors = []
     for f in stepped:
         exact, _ = refine_span(rec, events, ident, "first_order", models=[ref.model],
-                               states=states, exclude=f["events"], options=opt)
-        errors.append(heldout_residuals(exact.model, rec, events, f["events"])[1])
+                               states=states, exclude=list(f.events), options=opt)
+        errors.append(heldout_residuals(exact.model, rec, events, list(f.events))[1])
     assert mse == pytest.approx(float(np.mean(np.concatenate(errors) ** 2)), rel=1e-4)
     assert joint.metrics["mse_cross_validation"] == pytest.approx(0.03**2, rel=0.25)
 

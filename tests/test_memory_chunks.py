@@ -231,7 +231,7 @@ def test_fold_errors_merged_run_by_run_are_the_sorted_concatenation(monkeypatch)
     res = analyse(rec, AnalysisOptions(events="all", methods=("lsq_first_order",),
                                        consistency=False))
     fit = next(f for f in res.fits if f.ok and f.events)
-    folds = fit.diagnostics["folds"]
+    folds = fit.refinement.folds
     assert len(folds) == joint.MAX_FOLDS < len(res.events)  # interleaved folds
     sorts = []
     real_argsort = np.argsort

@@ -79,7 +79,7 @@ def test_noise_free_refinement_recovers_each_structure(name):
     for k, v in truth.params.items():
         assert fit.model.params[k] == pytest.approx(v, rel=2e-3, abs=2e-3), k
     assert set(fit.ci95) == set(truth.params)
-    assert fit.diagnostics["initial_state"] == "rest"
+    assert fit.refinement.state_text == "rest"
     if name == "n_lags":
         assert float(fit.model.params["n"]).is_integer()  # chosen among integers
 
@@ -111,7 +111,7 @@ def test_a_new_structure_entry_gets_its_refinement(monkeypatch):
         (fit,) = res.fits
         assert fit.model.params["K"] == pytest.approx(0.5, rel=0.02)
         assert fit.model.params["delay"] == pytest.approx(1.5, abs=0.1)
-        assert fit.diagnostics["u0"] == pytest.approx(2.0, abs=0.01)
+        assert fit.refinement.u0 == pytest.approx(2.0, abs=0.01)
         lo, hi = fit.ci95["K"]
         assert lo < 0.5 < hi
         assert fit.metrics["mse_validation"] < 1.3 * 0.05**2  # the drift is not noise
@@ -140,7 +140,7 @@ def test_short_window_from_rest():
         res = analyse(_fopdt([(20.0, 5.0)], 35.0, seed))
         assert not res.events[0].settled
         fit = res.fit("lsq_first_order", 0)
-        assert fit.diagnostics["initial_state"] == "rest"
+        assert fit.refinement.state_text == "rest"
         k_lsq.append(fit.model.K / 2.0 - 1)
         k_graph.append(max(_graphical_gains(res)) / 2.0 - 1)
     assert np.median(np.abs(k_lsq)) < 0.05
@@ -155,7 +155,7 @@ def test_step_on_a_decaying_tail_carries_the_state():
         res = analyse(_fopdt([(20.0, 5.0), (40.0, 3.0)], 60.0, seed),
                       AnalysisOptions(events=(1,)))
         fit = res.fit("lsq_first_order", 1)
-        assert fit.diagnostics["initial_state"] == "carried from event 0"
+        assert fit.refinement.state_text == "carried from event 0"
         errs.append(_k_t_errors(fit))
         # a reading from rest on a tail: refused (the output still moves the other way) or
         # far off, never close to the truth
@@ -176,7 +176,7 @@ def test_state_estimated_when_the_record_starts_moving():
                           source="<moving>")
         res = analyse(rec, AnalysisOptions(methods=("lsq_first_order",)))
         (fit,) = res.fits
-        assert fit.diagnostics["initial_state"] == "estimated"
+        assert fit.refinement.state_text == "estimated"
         errs.append(_k_t_errors(fit))
     assert np.all(np.median(np.abs(errs), axis=0) < 0.05)
 
@@ -207,7 +207,7 @@ def test_one_model_over_all_events_with_cross_validation():
     joint = next(f for f in res.fits if f.method == "lsq_first_order" and f.events)
     assert joint.events == (0, 1, 2, 3, 4) and joint.event == 0
     assert joint.model.params == pytest.approx({"K": 2.0, "T": 5.0, "delay": 1.0}, rel=0.02)
-    assert [f["events"] for f in joint.diagnostics["folds"]] == [[0], [1], [2], [3], [4]]
+    assert [f.events for f in joint.refinement.folds] == [(0,), (1,), (2,), (3,), (4,)]
     assert joint.metrics["mse_cross_validation"] == pytest.approx(0.03**2, rel=0.25)
     per_event = [f for f in res.fits if f.method == "lsq_first_order" and not f.events]
     assert all("mse_cross_validation" in f.metrics for f in per_event)
@@ -297,8 +297,8 @@ def test_cross_validation_beyond_the_fold_cap_holds_every_event_out_once():
     res = analyse(rec, AnalysisOptions(events="all", methods=("lsq_first_order",)))
     assert len(res.events) == 12
     joint = next(f for f in res.fits if f.events)
-    folds = joint.diagnostics["folds"]
-    assert len(folds) == 10 and sorted(j for f in folds for j in f["events"]) == list(range(12))
+    folds = joint.refinement.folds
+    assert len(folds) == 10 and sorted(j for f in folds for j in f.events) == list(range(12))
     assert joint.model.params == pytest.approx({"K": 2.0, "T": 5.0, "delay": 1.0}, rel=0.02)
     assert joint.metrics["mse_cross_validation"] == pytest.approx(noise**2, rel=0.25)
     assert res.recommended is not None

@@ -43,16 +43,16 @@ def test_thermal_config_recommended_model(thermal):
     print(f"best graphical: {_show(graphical[0])} {graphical[0].metrics['mse_validation']:.2f}")
     for f in refined:
         print(f"  {_show(f)} validation {f.metrics['mse_validation']:.2f}, fit "
-              f"{f.diagnostics['mse_fit']:.2f}, n_eff {f.diagnostics['n_eff']:.1f}")
+              f"{f.refinement.mse_fit:.2f}, n_eff {f.refinement.n_eff:.1f}")
     best = min(f.metrics["mse_validation"] for f in res.fits if f.ok)
     assert rec.metrics["mse_validation"] <= 1.05 * best
     assert 30 < graphical[0].metrics["mse_validation"] < 40  # 34.2 from rest, now continuous
     for f in refined:  # the refinements fit the identification event better than any reading
         assert set(f.ci95) == set(f.model.params)
         if f.model.spec.integrating:  # a heated plate is not an integrator
-            assert f.diagnostics["mse_fit"] > 10 * min(r.diagnostics["mse_fit"] for r in refined)
+            assert f.refinement.mse_fit > 10 * min(r.refinement.mse_fit for r in refined)
             continue
-        assert f.diagnostics["mse_fit"] < min(g.metrics["mse_identification"] for g in graphical)
+        assert f.refinement.mse_fit < min(g.metrics["mse_identification"] for g in graphical)
 
 
 def test_one_model_over_all_six_steps(thermal):
@@ -62,18 +62,18 @@ def test_one_model_over_all_six_steps(thermal):
     per_event = sorted((f for f in res.fits if f.method == "lsq_first_order" and not f.events),
                        key=lambda f: f.event)
     gains = [f.model.K for f in per_event]
-    folds = joint.diagnostics["folds"]
+    folds = joint.refinement.folds
     noise = np.mean([e.noise**2 for e in res.events])
     print(f"\njoint fit over events {list(joint.events)}: {_show(joint)}, held-out MSE "
           f"(leave one event out) {joint.metrics['mse_cross_validation']:.2f}, noise "
           f"variance {noise:.3f}")
     print("  folds (left out, K, its MSE):",
-          [(d["events"], round(d["params"]["K"], 2), round(d["mse"], 1)) for d in folds])
+          [(d.events, round(d.params["K"], 2), round(d.mse, 1)) for d in folds])
     print("  per-event K:", [round(k, 2) for k in gains],
-          "states:", [f.diagnostics["initial_state"] for f in per_event])
+          "states:", [f.refinement.state_text for f in per_event])
     print(f"  recommended: {_show(res.recommended)}; {res.recommendation.reason}")
     assert joint.events == (0, 1, 2, 3, 4, 5) and set(joint.model.params) == {"K", "T",
                                                                               "delay"}
     assert gains[0] > 19 and min(gains) < 15.5  # the gain falls with the operating point
     assert joint.metrics["mse_cross_validation"] > 100 * noise  # the misfit shows
-    assert [d["events"] for d in folds] == [[i] for i in range(6)]
+    assert [d.events for d in folds] == [(i,) for i in range(6)]

@@ -75,7 +75,7 @@ def test_integrator_with_lag_refined_within_2_percent(integrator_lag_fits):
     err = _errors(refined, INT_LAG, ("K", "T"))
     assert _rate(err, 0.02)[0] == 1.0 and _rate(err, 0.02)[1] >= 0.96
     assert np.median(err[:, 0]) < 0.002 and np.median(err[:, 1]) < 0.01
-    assert all(f.diagnostics["u0"] == 1.0 and f.diagnostics["initial_state"] == "rest"
+    assert all(f.refinement.u0 == 1.0 and f.refinement.state_text == "rest"
                for f in refined)
     for n in ("K", "T", "delay"):
         assert np.mean([f.ci95[n][0] <= INT_LAG.params[n] <= f.ci95[n][1]
@@ -92,7 +92,7 @@ def test_pulse_on_the_integrator_with_lag():
     refined = [identify(ev, "lsq_integrator_lag") for ev in events]
     err = _errors(refined, INT_LAG, ("K", "T"))
     assert _rate(err, 0.01)[0] == 1.0 and _rate(err, 0.03)[1] == 1.0
-    assert all(f.diagnostics["initial_state"] == "rest" for f in refined)
+    assert all(f.refinement.state_text == "rest" for f in refined)
 
 
 @pytest.mark.parametrize("method", ["integrator_asymptote", "lsq_integrator"])

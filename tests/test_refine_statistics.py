@@ -125,7 +125,7 @@ def _coverage(phi: float, n_seeds: int = 200) -> tuple[dict[str, float], float]:
         for k in hits:
             lo, hi = fit.ci95[k]
             hits[k] += lo <= truth.params[k] <= hi
-        factors.append(fit.diagnostics["variance_factor"])
+        factors.append(fit.refinement.variance_factor)
     return {k: v / n_seeds for k, v in hits.items()}, float(np.median(factors))
 
 

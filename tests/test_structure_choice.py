@@ -158,8 +158,8 @@ def test_a_turning_integrator_validates_on_its_balance_point():
         fit = res.recommended
         assert fit.model.integrating, res.recommendation.reason
         lsq = res.fit("lsq_integrator_lag", 0)
-        assert lsq.diagnostics["initial_state"] == "steady"
-        assert lsq.diagnostics["u0"] == pytest.approx(0.6, abs=0.01)
+        assert lsq.refinement.state_text == "steady"
+        assert lsq.refinement.u0 == pytest.approx(0.6, abs=0.01)
         assert lsq.model.params["K"] == pytest.approx(0.5, rel=0.02)
         assert lsq.model.params["T"] == pytest.approx(4.0, rel=0.05)
         mses.append(lsq.metrics["mse_validation"] / 0.05**2)
@@ -231,8 +231,8 @@ def test_dc_motor_speed_and_position():
     assert ev.response == "ramp" and ev.drift > 0
     fit = res.recommended
     assert fit.model.structure == "integrator_lag"
-    assert fit.diagnostics["initial_state"] == "steady"
-    assert fit.diagnostics["u0"] == pytest.approx(0.8, abs=0.05)
+    assert fit.refinement.state_text == "steady"
+    assert fit.refinement.u0 == pytest.approx(0.8, abs=0.05)
     assert fit.model.K == pytest.approx((ev.slope - ev.drift) / (ev.u_ss - ev.u0), rel=0.01)
     assert 0.0 < fit.model.params["T"] < 0.2
 

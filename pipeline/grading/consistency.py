@@ -127,7 +127,7 @@ def event_estimates(record: Record, events: list[Event], states: list[str],
         ev = events[i]
         out.append(EventEstimate(i, ev.t0, ev.u0, ev.u_ss, y_before, y_after, K, K_ci,
                                  float(fit.model.params[name]), tuple(fit.ci95[name]),
-                                 str(fit.diagnostics.get("initial_state", "")), K_se))
+                                 fit.refinement.state_text if fit.is_refined else "", K_se))
     return out
 
 

@@ -49,7 +49,7 @@ from ..record import Record
 from ..refine import fold_models, held_out_events
 from ..results import Recommendation
 from ..uncertainty import variance_factor
-from ..validate import balance_point, heldout_residuals, run_errors, validation_simulation
+from ..validate import heldout_residuals, run_errors, validation_simulation
 
 #: Standard errors within which a simpler structure counts as good as the best (95 %).
 Z_STRUCTURE = 1.96
@@ -76,12 +76,6 @@ def information_criteria(errors: Sequence[tuple[float, int, float]], n_params: S
     n_eff = best[1] / max(best[2], 1.0)
     return [n_eff * math.log(max(sse, 1e-300) / n) + 2 * k
             for (sse, n, _), k in zip(errors, n_params, strict=True)]
-
-
-def refined(fit: Fit) -> bool:
-    """Whether the fit is a least-squares refinement (it used all the identification data;
-    among models the held-out data cannot tell apart it is preferred)."""
-    return "mse_fit" in fit.diagnostics
 
 
 def complexity(fit: Fit) -> int:
@@ -117,12 +111,12 @@ def criterion(result) -> str:
 
 def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
     """``(sample indices, errors)`` of a fit on the data held out from it."""
-    rec, events, u0 = result.record, list(result.events), balance_point(fit)
+    rec, events, u0 = result.record, list(result.events), fit.balance_point
     if result.validation_events:
         return heldout_residuals(fit.model, rec, events, result.validation_events, u0)
-    if fit.diagnostics.get("folds"):
+    if fit.is_refined and fit.refinement.folds:
         return in_time_order([_fold_errors(m, rec, events, held, b) for held, m, b in
-                              fold_models(fit.model.structure, fit.diagnostics["folds"])])
+                              fold_models(fit.model.structure, fit.refinement.folds)])
     others = held_out_events(result.identification_events, fit.event)
     return heldout_residuals(fit.model, rec, events, others, u0)
 
@@ -238,8 +232,8 @@ def _representative(group: list[Candidate], noise: float, level: float, result
     """The model that stands for a structure: its best refinement, unless a graphical
     model of the structure is better by more than the uncertainty (Bonferroni over them:
     the best of several readings on the same validation noise wins by chance often)."""
-    lsq = [c for c in group if refined(c.fit)]
-    graph = sorted((c for c in group if not refined(c.fit)), key=lambda c: c.error)
+    lsq = [c for c in group if c.fit.is_refined]
+    graph = sorted((c for c in group if not c.fit.is_refined), key=lambda c: c.error)
     if not lsq:
         return graph[0]
     rep = min(lsq, key=lambda c: c.error)

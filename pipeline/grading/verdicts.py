@@ -21,7 +21,6 @@ import numpy as np
 
 from ..events import Event
 from ..fit import Fit, Flag
-from ..methods import REGISTRY
 from ..models import PARAMETERS
 from ..record import Record, in_time_unit
 from ..results import RecordResult
@@ -79,13 +78,6 @@ def verdict_of(flags: tuple[Flag, ...] | list[Flag]) -> str:
     for f in flags:
         worst = max(worst, SEVERITY_ORDER.index(f.severity))
     return SEVERITY_ORDER[worst]
-
-
-def is_refined(method: str) -> bool:
-    """A least-squares refinement (fitted to the data) rather than a graphical reading
-    (the registry's ``kind``)."""
-    info = REGISTRY.get(method)
-    return info is not None and info.kind == "refinement"
 
 
 def grade(result: RecordResult) -> RecordResult:
@@ -187,7 +179,7 @@ def _unsettled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     if ev.kind != "step":
         return None
     window = float(rec.t[ev.i_end - 1] - ev.t0)
-    if is_refined(fit.method):
+    if fit.is_refined:
         if fit.model.spec.integrating or fit.model.K == 0:
             return None
         share = float(fit.model.unit_step(np.array([window]))[0] / fit.model.K)
@@ -208,7 +200,7 @@ def _unsettled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
 def _baseline(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     """A trend in the stretch before t0 larger than its noise and than BASELINE_DRIFT of the
     change (a refined fit that carried or estimated the initial state is exempt)."""
-    if is_refined(fit.method) and fit.diagnostics.get("initial_state", "rest") != "rest":
+    if fit.is_refined and not fit.refinement.at_rest:
         return None
     if fit.model.spec.integrating:  # read against the baseline's drift line, not a level
         return None
@@ -281,8 +273,7 @@ def _misfit(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     at its fitted operating point; a reading's simulated from the event's). Beyond
     :data:`MISFIT_RATIO` sigmas a warning; unreliable when the model explains less than
     :data:`UNRELIABLE_FIT_PERCENT` of the window's variation (NRMSE fit)."""
-    mse = fit.diagnostics.get("mse_fit") if is_refined(fit.method) else None
-    mse = float(mse) if isinstance(mse, int | float) else fit.metrics.get(
+    mse = fit.refinement.mse_fit if fit.is_refined else fit.metrics.get(
         "mse_identification", math.nan)
     if not math.isfinite(mse) or ev.noise <= 0:
         return None

@@ -20,8 +20,8 @@ from ..refine import (
     carry_source,
     mismatch,
     refine_event,
-    result_parts,
     span_fit,
+    summary,
     unchanged,
 )
 from .base import input_change
@@ -62,8 +62,8 @@ def _refinement(structure: str) -> Callable[..., MethodResult]:
             raise NotApplicable(reason)
         if context.get("models") is None:
             context = {**context, "models": graphical_models(ev)}
-        model, diagnostics, ci95 = result_parts(refine_event(ev, structure, **context))
-        return MethodResult(model, diagnostics, ci95)
+        ref = refine_event(ev, structure, **context)
+        return MethodResult(ref.model, ci95=dict(ref.ci95), refinement=summary(ref))
 
     method.__doc__ = (f"Least-squares refinement of a {structure} model on one event "
                       "(pipeline.refine.refine_event).")

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 from ..errors import NotApplicable
 from ..events import EventData
-from ..fit import Fit
+from ..fit import Fit, RefinementSummary
 from ..models import STRUCTURES, ProcessModel
 from .references import REFERENCES
 
@@ -58,6 +58,7 @@ class MethodResult:
     model: ProcessModel
     diagnostics: dict = field(default_factory=dict)
     ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
+    refinement: RefinementSummary | None = None  # a least-squares refinement's summary
 
 
 def _citations() -> dict[str, str]:
@@ -138,7 +139,8 @@ def identify(ev: EventData, method: str, **context) -> Fit:
         return Fit(method, ev.index, "not_applicable", f"the reading gives {outside}, outside "
                    "the structure's domain: the response does not have this shape",
                    diagnostics=res.diagnostics)
-    return Fit(method, ev.index, "ok", None, res.model, {}, res.diagnostics, dict(res.ci95))
+    return Fit(method, ev.index, "ok", None, res.model, {}, res.diagnostics, dict(res.ci95),
+               refinement=res.refinement)
 
 
 def _outside_bounds(model: ProcessModel) -> str | None:

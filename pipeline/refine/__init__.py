@@ -16,7 +16,7 @@ from .event import (
     event_states,
     mismatch,
     refine_event,
-    result_parts,
+    summary,
     unchanged,
 )
 from .joint import fold_models, held_out_events, span_fit
@@ -24,4 +24,4 @@ from .refinement import MIN_DOF, Refinement, RefineOptions, refine
 
 __all__ = ["MIN_DOF", "RefineOptions", "Refinement", "carry_source", "event_states",
            "fold_models", "held_out_events", "mismatch", "refine", "refine_event",
-           "result_parts", "span_fit", "unchanged"]
+           "span_fit", "summary", "unchanged"]

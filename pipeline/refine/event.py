@@ -29,6 +29,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..events import Event, EventData
+from ..fit import InitialState, RefinementSummary
 from ..models import STRUCTURES, ProcessModel
 from ..record import Record
 from ..signal import smooth
@@ -114,7 +115,7 @@ def unchanged(ev: EventData) -> str | None:
     return None
 
 
-def initial_state(ev: EventData, previous_settled: bool | None = None) -> str:
+def initial_state(ev: EventData, previous_settled: bool | None = None) -> InitialState:
     """"rest" or "estimated" for an event (see the module docstring)."""
     i0 = ev.i0
     if previous_settled is False:
@@ -151,7 +152,7 @@ def band_exit(ev: EventData) -> float | None:
 
 
 def refine_event(ev: EventData, structure: str, *, models: Sequence[ProcessModel] | None = None,
-                 state: str | None = None, options: RefineOptions | None = None
+                 state: InitialState | None = None, options: RefineOptions | None = None
                  ) -> Refinement:
     """Refine ``structure`` on one event: its baseline (:func:`pipeline.validate.fit_start`)
     and window, the model at rest at the event's input level ``u0`` or with its initial
@@ -169,7 +170,8 @@ def refine_event(ev: EventData, structure: str, *, models: Sequence[ProcessModel
                   options=options)
 
 
-def structure_state(structure: str, state: str, ev: Event | EventData) -> str:
+def structure_state(structure: str, state: InitialState, ev: Event | EventData
+                    ) -> InitialState:
     """``state`` ("rest" or "estimated", :func:`initial_state`) as a ``structure`` takes
     it: an integrating structure on a baseline that segmentation measured as a steady
     ramp (``drift``: a straight line before the first event, a previous window that ended
@@ -182,23 +184,26 @@ def structure_state(structure: str, state: str, ev: Event | EventData) -> str:
     return state
 
 
-def result_parts(ref: Refinement, **extra) -> tuple[ProcessModel, dict, dict]:
-    """``(model, diagnostics, ci95)`` of a refinement, as a fit carries them: the fitted
-    operating point, how the initial state was treated, the fit's own error and effective
-    sample size, and the standard errors."""
-    diag = {
-        "initial_state": ref.initial_state, "y0": ref.y0, "u0": ref.u0,
-        "mse_fit": ref.mse, "n_fit": int(ref.residuals.size), "n_eff": ref.n_eff,
-        "variance_factor": ref.variance_factor, "n_params": ref.n_params,
-        "std": dict(ref.std), "nfev": ref.nfev, "runs": ref.n_runs,
-        "interval_method": ref.diagnostics.get(
-            "interval_method", "Jacobian, scaled by the residuals' effective sample size"),
-        **extra,
-    }
-    return ref.model, diag, dict(ref.ci95)
+#: How the intervals are made unless bootstrap refits were asked for.
+JACOBIAN_INTERVALS = "Jacobian, scaled by the residuals' effective sample size"
 
 
-def event_states(record: Record, events: Sequence[Event]) -> list[str]:
+def summary(ref: Refinement, carried_from: int | None = None) -> RefinementSummary:
+    """What a fit carries of a refinement (:class:`pipeline.fit.RefinementSummary`): how
+    the initial state was treated ("carried" when the span starts at rest at an earlier
+    event, ``carried_from``, unless the structure starts "steady" there), the fitted
+    operating point, the fit's own error and effective sample size, the standard errors."""
+    state = "carried" if carried_from is not None and ref.initial_state != "steady" \
+        else ref.initial_state
+    return RefinementSummary(
+        state=state, carried_from=carried_from if state == "carried" else None,
+        y0=ref.y0, u0=ref.u0, mse_fit=ref.mse, n_fit=int(ref.residuals.size),
+        n_eff=ref.n_eff, variance_factor=ref.variance_factor, n_params=ref.n_params,
+        std=dict(ref.std), nfev=ref.nfev, runs=ref.n_runs,
+        interval_method=ref.diagnostics.get("interval_method", JACOBIAN_INTERVALS))
+
+
+def event_states(record: Record, events: Sequence[Event]) -> list[InitialState]:
     """:func:`initial_state` of every event of a record."""
     return [initial_state(EventData.from_event(record, ev), events[i - 1].settled if i else None)
             for i, ev in enumerate(events)]

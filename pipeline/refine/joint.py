@@ -29,11 +29,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..events import Event
-from ..fit import Fit
+from ..fit import Fit, Fold, InitialState
 from ..models import ProcessModel
 from ..record import Record
 from ..validate import fit_start, heldout_residuals, validation_runs
-from .event import carry_source, mismatch, result_parts, structure_state
+from .event import carry_source, mismatch, structure_state, summary
 from .left_out import left_out_fits
 from .refinement import Refinement, RefineOptions, refine, refine_model
 from .search import candidate_starts
@@ -42,15 +42,15 @@ from .search import candidate_starts
 @dataclass(frozen=True)
 class Span:
     """Samples ``[start, stop)`` simulated, ``mask`` the fitted ones, the input level
-    ``u_ref`` at the start, and how the state starts ("rest" or "estimated") and is
-    described (``label``)."""
+    ``u_ref`` at the start, how the state starts ("rest" or "estimated"), and the event
+    it is carried from (None: the first identification event's own start)."""
 
     start: int
     stop: int
     mask: np.ndarray
     u_ref: float
-    state: str
-    label: str
+    state: InitialState
+    carried_from: int | None
 
 
 def span(events: Sequence[Event], ident: Sequence[int], states: Sequence[str],
@@ -71,9 +71,8 @@ def span(events: Sequence[Event], ident: Sequence[int], states: Sequence[str],
         a = max(fit_start(ev.i_base, ev.i_start, ev.i_end), start) if i == kept[0] \
             else ev.i_start
         mask[a - start : ev.i_end - start] = True
-    label = ("estimated" if src is None else "rest" if src == first else
-             f"carried from event {src}")
-    return Span(start, stop, mask, origin.u0, "estimated" if src is None else "rest", label)
+    return Span(start, stop, mask, origin.u0, "estimated" if src is None else "rest",
+                None if src is None or src == first else src)
 
 
 def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], structure: str,
@@ -87,7 +86,7 @@ def refine_span(record: Record, events: Sequence[Event], ident: Sequence[int], s
     s, state, args, kw = _span_problem(record, events, ident, structure, models, states,
                                        exclude, starts)
     ref = refine(*args, **kw, options=span_options(options, ident))
-    return replace(ref, initial_state=state if state == "steady" else s.label), s
+    return ref, s
 
 
 def _refit_model(record: Record, events: Sequence[Event], ident: Sequence[int],
@@ -173,7 +172,7 @@ def held_out_events(ident: Sequence[int], event: int, at_most: int = MAX_FOLDS
 
 def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int],
                    joint: ProcessModel, *, states: Sequence[str],
-                   options: RefineOptions | None = None) -> tuple[float, list[dict]]:
+                   options: RefineOptions | None = None) -> tuple[float, tuple[Fold, ...]]:
     """Leave-one-event-out (leave-a-fold-out beyond :data:`MAX_FOLDS` events,
     :func:`folds_of`): for each fold, the joint fit without its events (started from the
     joint model, the state still carried through them) and its validation error on them.
@@ -185,8 +184,7 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
     folds' costs 13-36 % above the exact refits' with the steps). A stepped fold keeps
     an integer order (n_lags' n) at the joint fit's: the order is chosen on all the
     events, which the exact refit of a fold re-chooses.
-    Returns the pooled held-out MSE and one entry per fold (events, params, mse, and
-    ``refit``: "exact" or "gauss-newton")."""
+    Returns the pooled held-out MSE and one :class:`pipeline.fit.Fold` per fold."""
     held_out = folds_of(ident)
     stepped = len(ident) > MAX_FOLDS
     approx = (_stepped_folds(record, events, ident, joint, held_out, states, options)
@@ -214,11 +212,11 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
         assert e.size == size, "a fold's errors are its validation runs' samples"
         np.square(e, out=squares[at: at + size])
         at += size
-        folds.append({"events": held, "params": dict(model.params), "u0": u0,
-                      "mse": float(np.mean(e**2)) if e.size else math.nan,
-                      "refit": "exact" if step is None else "gauss-newton"})
+        folds.append(Fold(tuple(held), dict(model.params), u0,
+                          float(np.mean(e**2)) if e.size else math.nan,
+                          "exact" if step is None else "gauss-newton"))
         del e
-    return (float(np.mean(squares)) if squares.size else math.nan), folds
+    return (float(np.mean(squares)) if squares.size else math.nan), tuple(folds)
 
 
 def _stepped_folds(record: Record, events: Sequence[Event], ident: Sequence[int],
@@ -239,12 +237,11 @@ def _stepped_folds(record: Record, events: Sequence[Event], ident: Sequence[int]
                          max_rows=opt.max_rows)
 
 
-def fold_models(structure: str, folds: Sequence[dict]
+def fold_models(structure: str, folds: Sequence[Fold]
                 ) -> list[tuple[list[int], ProcessModel, float | None]]:
-    """The fold models stored by :func:`cross_validate` (in a fit's diagnostics): held-out
+    """The fold models of :func:`cross_validate` (a fit's ``refinement.folds``): held-out
     events, model, and an integrating model's balance point (None otherwise)."""
-    return [([int(j) for j in f["events"]], ProcessModel(structure, dict(f["params"])),
-             f.get("u0")) for f in folds]
+    return [(list(f.events), ProcessModel(structure, dict(f.params)), f.u0) for f in folds]
 
 
 def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], method: str,
@@ -267,15 +264,16 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
     try:
         ref, s = refine_span(record, events, ident, structure, models=models, states=states,
                              options=options)
-        extra = {"events": ident} if many else {}
-        model, diag, ci = result_parts(ref, **extra)
+        model, ci, refined = ref.model, dict(ref.ci95), summary(ref, s.carried_from)
         del ref  # its fit and residuals over the span (record-long on a long log)
         metrics = {}
         if cross_validation and many:
             fold_opt = replace(options or RefineOptions(), n_starts=1, bootstrap=0)
-            metrics["mse_cross_validation"], diag["folds"] = cross_validate(
+            metrics["mse_cross_validation"], folds = cross_validate(
                 record, events, ident, model, states=states, options=fold_opt)
-        return Fit(method, ident[0], "ok", None, model, metrics, diag, ci, events=many)
+            refined = replace(refined, folds=folds)
+        return Fit(method, ident[0], "ok", None, model, metrics, ci95=ci, events=many,
+                   refinement=refined)
     except Exception as exc:  # a bug in one fit must not lose the record's other fits
         return Fit(method, ident[0], "failed", f"internal error: {type(exc).__name__}: {exc}",
                    events=many)

@@ -35,6 +35,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..fit import InitialState
 from ..models import STRUCTURES
 from .lstsq import solve
 from .problem import Problem
@@ -62,7 +63,7 @@ DIFF_STEP, DELAY_STEP = 1e-5, 1e-3
 
 
 def left_out_fits(t, u, y, structure: str, *, u_ref: float, masks: Iterable[np.ndarray],
-                  initial_state: str, params: Mapping[str, float], free_lags: int = 3,
+                  initial_state: InitialState, params: Mapping[str, float], free_lags: int = 3,
                   max_rows: int = 600) -> list[tuple[dict[str, float], float] | None]:
     """For each of ``masks`` (the criterion samples of the span ``t, u, y``), the model
     of ``structure`` fitted on them by Gauss-Newton steps from ``params`` (the fit on

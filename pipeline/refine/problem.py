@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..fit import InitialState
 from ..memory import CHUNK
 from ..models import STRUCTURES
 from ..simulation import each_free_column, forced_response, offset_response, uniform_step
@@ -77,7 +78,7 @@ class Problem:
     counts: np.ndarray  # fit samples per row
     dt: float | None
     horizon: float
-    state: str  # "rest", "estimated" or "steady" (see refine)
+    state: InitialState  # how the span starts (see pipeline.refine.refine)
     free_lags: int
     full: bool = False  # every sample of the span is a fit sample
     linear: tuple[str, ...] = ()  # LINEAR_PARAMS solved inside the residual (the search)
@@ -87,7 +88,7 @@ class Problem:
 
     @classmethod
     def of(cls, t, u, y, structure: str, *, u_ref: float, mask: np.ndarray,
-           initial_state: str, free_lags: int, max_rows: int) -> Problem:
+           initial_state: InitialState, free_lags: int, max_rows: int) -> Problem:
         """The problem of fitting ``structure`` to ``y`` over the span ``t, u`` (the model
         starting at the first sample) on the samples of ``mask``, in at most ``max_rows``
         criterion rows."""

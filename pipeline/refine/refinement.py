@@ -39,9 +39,11 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import get_args
 
 import numpy as np
 
+from ..fit import InitialState
 from ..models import STRUCTURES, ProcessModel
 from ..uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
 from .lstsq import block_means, project_out, solve
@@ -95,7 +97,7 @@ class Refinement:
     std: dict[str, float]
     fitted: np.ndarray | None
     residuals: np.ndarray
-    initial_state: str
+    initial_state: InitialState
     n_linear: int
     variance_factor: float
     nfev: int
@@ -118,7 +120,7 @@ class Refinement:
 
 
 def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[str, float]],
-           mask: np.ndarray | None = None, initial_state: str = "rest",
+           mask: np.ndarray | None = None, initial_state: InitialState = "rest",
            fixed: Mapping[str, float] | None = None, options: RefineOptions | None = None
            ) -> Refinement:
     """Fit ``structure`` to ``y`` over the span ``t, u`` (the model starts at the first
@@ -139,7 +141,7 @@ def refine(t, u, y, structure: str, *, u_ref: float, starts: Sequence[Mapping[st
 
 def refine_model(t, u, y, structure: str, *, u_ref: float,
                  starts: Sequence[Mapping[str, float]], mask: np.ndarray | None = None,
-                 initial_state: str = "rest", fixed: Mapping[str, float] | None = None,
+                 initial_state: InitialState = "rest", fixed: Mapping[str, float] | None = None,
                  options: RefineOptions | None = None) -> tuple[ProcessModel, float]:
     """:func:`refine`'s model and input balance point ``u0`` alone, the same to the bit,
     without its intervals (the profiled Jacobian: ``2 x`` the searched parameters more
@@ -166,12 +168,12 @@ class _Optimum:
     runs: int
 
 
-def _optimum(t, u, y, structure: str, u_ref: float, starts, mask, initial_state: str,
+def _optimum(t, u, y, structure: str, u_ref: float, starts, mask, initial_state: InitialState,
              fixed, opt: RefineOptions) -> _Optimum:
     """The search of :func:`refine`, without the intervals: the parameters at the optimum
     (snapped to a bound within its tolerance, the linear ones from their solve); a long
     window coarse to fine (the optimum on a decimated copy, polished on the whole)."""
-    if initial_state not in ("rest", "estimated", "steady") or (
+    if initial_state not in get_args(InitialState) or (
             initial_state == "steady" and not STRUCTURES[structure].integrating):
         raise ValueError(f"initial state {initial_state!r} for a {structure} model")
     t = np.asarray(t, dtype=np.float64)
@@ -268,7 +270,7 @@ def _integer(prob: Problem, space: Space, fixed, p_best, ints, dt, span, opt,
 
 
 def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
-            initial_state: str, u_ref: float, opt: RefineOptions, nfev: int, runs: int
+            initial_state: InitialState, u_ref: float, opt: RefineOptions, nfev: int, runs: int
             ) -> Refinement:
     """Linear coefficients, the profiled Jacobian and the intervals at ``p`` (``y``: the
     span's output). Of the span-long arrays only the residuals are alive while the

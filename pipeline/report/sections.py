@@ -17,7 +17,7 @@ from ..grading import static_map_note
 from ..record import in_time_unit
 from ..results import RecordResult
 from ..schema import fit_label
-from ..validate import balance_point, event_simulation, validation_simulation
+from ..validate import event_simulation, validation_simulation
 from . import plots
 from .consistency_plots import consistency_figure, static_map_figure
 from .tables import (
@@ -195,7 +195,7 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
     def curves():  # one at a time (plots.overlay decimates each as it comes)
         for f in fits:
             sims = validation_simulation(f.model, rec, res.events, validation,
-                                         balance_point(f))
+                                         f.balance_point)
             if len(sims) == 1 and sims[0][0] == slice(lo, hi):
                 y = sims[0][1]  # one run over the whole span: the curve itself
             else:
