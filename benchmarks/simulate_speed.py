@@ -33,7 +33,7 @@ import numpy as np
 from scipy import signal
 
 from pipeline.models import ProcessModel
-from pipeline.record import infer_sample_time
+from pipeline.record import uniform_step
 from pipeline.simulation.engine import simulate
 
 DT = 0.01
@@ -51,7 +51,7 @@ def previous(model: ProcessModel, t, u, u0, y0):
     """The simulator before the closed forms, for models of order <= 2 and a whole-sample
     dead time (cont2discrete and a sample-time check on every call)."""
     t = np.asarray(t, dtype=np.float64)
-    dt = infer_sample_time(t, rel_tol=1e-4)
+    dt = uniform_step(t, 1e-4)
     du = np.asarray(u, dtype=np.float64) - u0
     n, whole = du.size, round(model.delay / dt)
     b, a, _ = signal.cont2discrete(model.num_den(), dt, method="zoh")

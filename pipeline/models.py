@@ -284,6 +284,22 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
 )}
 
 
+def delayed_step(spec: Structure, p: Params, t) -> np.ndarray:
+    """The unit-gain step response of ``spec`` with the dead time ``p["delay"]`` at times
+    ``t`` (0 before the dead time): the one delayed step every simulation, regressor and
+    filter head is made of. Right-continuous at the dead time (``S(delay) = S(delay+)``,
+    as scipy's ZOH: a lead-lag's jump is seen at the sample where the delayed step
+    arrives); times within 1e-12 (relative) of the dead time count as on it."""
+    t = np.asarray(t, dtype=np.float64)
+    delay = float(p.get("delay", 0.0))
+    tau = t - delay
+    out = np.zeros_like(tau)
+    eps = 1e-12 * max(1.0, abs(delay), float(np.max(np.abs(t))) if t.size else 0.0)
+    pos = tau >= -eps
+    out[pos] = spec.step(p, np.maximum(tau[pos], 0.0))
+    return out
+
+
 # =====================================================================================
 # ProcessModel
 # =====================================================================================
@@ -343,13 +359,7 @@ class ProcessModel:
         is seen at the sample where the delayed step arrives, as in scipy's ZOH
         discretisation. Times within 1e-12 (relative) of the dead time count as on it.
         """
-        t = np.asarray(t, dtype=np.float64)
-        tau = t - self.delay
-        out = np.zeros_like(tau)
-        eps = 1e-12 * max(1.0, abs(self.delay), float(np.max(np.abs(t))) if t.size else 0.0)
-        pos = tau >= -eps
-        out[pos] = self.K * self.spec.step(self.params, np.maximum(tau[pos], 0.0))
-        return out
+        return self.K * delayed_step(self.spec, self.params, t)
 
     # -- transfer function --------------------------------------------------------------
     def num_den(self) -> tuple[list[float], list[float]] | None:

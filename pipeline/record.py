@@ -82,20 +82,26 @@ def in_time_unit(seconds, unit: str | None):
 MAX_GAP_FACTOR = 1000.0
 
 
-def infer_sample_time(t: np.ndarray, rel_tol: float = 1e-6) -> float | None:
-    """The constant sample time of ``t``, or ``None`` when the grid is irregular."""
+#: A record's grid is uniform (it has a ``sample_time``) when every interval is within
+#: this share of the mean interval (the simulator allows more,
+#: :data:`pipeline.simulation.engine.UNIFORM_REL_TOL`).
+SAMPLE_TIME_REL_TOL = 1e-6
+
+
+def uniform_step(t: np.ndarray, rel_tol: float = SAMPLE_TIME_REL_TOL,
+                 intervals: np.ndarray | None = None) -> float | None:
+    """The sample time of ``t`` when its grid is uniform, else None: the one rule of the
+    package. Uniform means every interval is within ``rel_tol`` of the mean interval
+    ``(t[-1] - t[0]) / (n - 1)`` (the mean, not the median: no sort; on a uniform grid
+    the two agree to rounding). ``intervals``: ``np.diff(t)`` when the caller has them."""
+    t = np.asarray(t, dtype=np.float64)
     if t.size < 2:
         return None
-    return _regular_step(np.diff(t), rel_tol)
-
-
-def _regular_step(dt: np.ndarray, rel_tol: float = 1e-6) -> float | None:
-    """The median of the intervals ``dt`` when every one is within ``rel_tol`` of it
-    (``dt`` is partitioned in place: no copy of a long record's intervals)."""
-    med = float(np.median(dt, overwrite_input=True))
-    if med > 0 and max(float(dt.max()) - med, med - float(dt.min())) <= (
-            rel_tol * max(med, 1e-300) + 1e-12):
-        return med
+    d = np.diff(t) if intervals is None else intervals
+    mean = float(t[-1] - t[0]) / (t.size - 1)
+    tol = rel_tol * mean + 1e-12
+    if mean > 0 and float(d.max()) - mean <= tol and mean - float(d.min()) <= tol:
+        return mean
     return None
 
 
@@ -139,8 +145,8 @@ def make_record(
         )
     k = int(np.argmax(dt))
     jump = float(dt[k])
-    sample_time = _regular_step(dt)  # dt is reordered from here on
-    med = sample_time or float(np.median(dt, overwrite_input=True))
+    sample_time = uniform_step(t, intervals=dt)
+    med = sample_time or float(np.median(dt, overwrite_input=True))  # dt reordered
     if jump > MAX_GAP_FACTOR * med:
         raise UserError(
             f"{source}: time jumps by {jump:.6g} s at data row {k + 2} while the median "

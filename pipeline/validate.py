@@ -43,8 +43,8 @@ from .uncertainty import variance_factor
 def simulate(model: ProcessModel, record: Record, sl: slice, u0: float, y0: float
              ) -> np.ndarray:
     """The model from rest at ``(u0, y0)`` over the samples ``sl`` of the record
-    (:func:`pipeline.simulation.regressors.model_response`, with the record's sample time
-    instead of a check of the grid on every call)."""
+    (:func:`pipeline.simulation.simulate`, through the forced response with the record's
+    sample time: no check of the grid on every call, no filter cache)."""
     t, u = record.t[sl], record.u[sl]
     if t.size < 2:
         return np.full(t.size, float(y0))

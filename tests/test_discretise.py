@@ -80,10 +80,10 @@ def test_no_matrix_exponential_per_call(monkeypatch):
     u = np.where(t > 5, 1.0, 0.0)
     m = ProcessModel("second_order", {"K": 1.0, "zeta": 0.4, "wn": 2.0, "delay": 0.2})
     first = simulate(m, t, u, 0.0, 0.0)
-    hits = discretise._zoh_filter.cache_info().hits
+    hits = discretise._cached_filter.cache_info().hits
     same = ProcessModel("second_order", dict(m.params))  # an equal model, a new object
     assert np.array_equal(simulate(same, t, u, 0.0, 0.0), first)
-    assert discretise._zoh_filter.cache_info().hits == hits + 1
+    assert discretise._cached_filter.cache_info().hits == hits + 1
 
 
 def test_memory_bounds_the_pulse_response():

@@ -16,12 +16,12 @@ from pipeline import validate
 from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.grading import consistency, ranks, superposition
 from pipeline.grading import recommendation as recommend
-from pipeline.models import STRUCTURES, ProcessModel
+from pipeline.models import STRUCTURES, ProcessModel, delayed_step
 from pipeline.refine import joint, problem
 from pipeline.report import drawing
 from pipeline.segmentation.detect import SegmentOptions, segment
 from pipeline.simulation import engine as simulation
-from pipeline.simulation import regressors as basis
+from pipeline.simulation import regressors
 from pipeline.synth import step_record
 
 
@@ -72,14 +72,14 @@ def test_forced_response_in_chunks_is_the_one_filter(structure, params, monkeypa
     t = np.arange(20_000) * 0.1
     u = 5.0 + np.cumsum(rng.normal(0.0, 0.01, t.size))
     p = {"K": 1.0, **params}
-    whole = basis.forced_response(structure, p, t, u - 5.0, 0.1)
-    monkeypatch.setattr(basis, "CHUNK", 999)  # the chunked path from 999 samples on
-    got = basis.forced_response(structure, p, t, u, 0.1, u0=5.0)
+    whole = simulation.forced_response(structure, p, t, u - 5.0, 0.1)
+    monkeypatch.setattr(simulation, "CHUNK", 999)  # the chunked path from 999 samples on
+    got = simulation.forced_response(structure, p, t, u, 0.1, u0=5.0)
     assert got.tobytes() == whole.tobytes()
     # less another response, in that response's array: the same as the subtraction
-    other = basis.forced_response(structure, {**p, "delay": 0.05}, t, u, 0.1, u0=5.0)
+    other = simulation.forced_response(structure, {**p, "delay": 0.05}, t, u, 0.1, u0=5.0)
     want = np.subtract(whole, other)
-    got = basis.forced_response(structure, p, t, u, 0.1, u0=5.0, minus=other)
+    got = simulation.forced_response(structure, p, t, u, 0.1, u0=5.0, minus=other)
     assert got is other and got.tobytes() == want.tobytes()
 
 
@@ -94,20 +94,20 @@ def test_a_long_convolution_in_chunks_is_the_whole_one_to_rounding(params, monke
     u = 5.0 + np.repeat(rng.normal(0.0, 1.0, 60), 500)  # steps every 50 s
     p = {"K": 1.0, **params}
     model = ProcessModel("n_lags", {**p, "K": 2.0})
-    whole = basis.forced_response("n_lags", p, t, u - 5.0, 0.1)
+    whole = simulation.forced_response("n_lags", p, t, u - 5.0, 0.1)
     public = simulation.simulate(model, t, u, 5.0, 1.0, dt=0.1)
     assert np.max(np.abs(whole)) > 1.0  # the steps move it
     assert np.max(np.abs(public - 1.0 - 2.0 * whole)) < 1e-12 * np.max(np.abs(public))
     for chunk in (999, 4096):  # the pulse response (a few hundred samples) spans chunks
         monkeypatch.setattr(simulation, "CHUNK", chunk)
-        got = basis.forced_response("n_lags", p, t, u, 0.1, u0=5.0)
+        got = simulation.forced_response("n_lags", p, t, u, 0.1, u0=5.0)
         assert np.max(np.abs(got - whole)) < 1e-12 * np.max(np.abs(whole))
         got = simulation.simulate(model, t, u, 5.0, 1.0, dt=0.1)
         assert np.max(np.abs(got - public)) < 1e-12 * np.max(np.abs(public))
     # below a chunk: one convolution of the pulse response over the whole input, as
     # before chunks (the same numbers to the bit)
     k = np.arange(t.size) * 0.1
-    h = np.diff(basis.step_delayed(STRUCTURES["n_lags"], p, k), prepend=0.0)
+    h = np.diff(delayed_step(STRUCTURES["n_lags"], p, k), prepend=0.0)
     h = h[: np.flatnonzero(np.abs(h) > 1e-15 * np.abs(h).sum())[-1] + 1]
     assert whole.tobytes() == signal.oaconvolve(u - 5.0, h)[: t.size].tobytes()
     h = simulation.pulse_response(model, 0.1, t.size)
@@ -167,7 +167,7 @@ def test_a_refinement_design_kept_as_columns_is_the_stacked_one(structure, state
     array of the response at 0, chunk by chunk on a long span); multiplied out a chunk of
     samples at a time, its product. The span's times and input are the caller's arrays,
     and the time since the span start is made only for the columns that need it."""
-    monkeypatch.setattr(basis, "CHUNK", chunk)  # below the span: the chunked filter
+    monkeypatch.setattr(simulation, "CHUNK", chunk)  # below the span: the chunked filter
     rng = np.random.default_rng(12)
     n, dt, u_ref = 12_000, 0.1, 4.0
     t = 100.0 + np.arange(n) * dt
@@ -188,15 +188,15 @@ def test_a_refinement_design_kept_as_columns_is_the_stacked_one(structure, state
         # the stacked design as refine built it before: the forced response from the
         # input's deviation, the offset, the nuisance columns
         t_rel, q = t - t[0], {**p, **dict.fromkeys(linear, 0.0)}
-        x0 = basis.forced_response(structure, q, t_rel, u - u_ref, prob.dt)
-        xs = [basis.forced_response(structure, {**q, n_: 1.0}, t_rel, u - u_ref, prob.dt)
+        x0 = simulation.forced_response(structure, q, t_rel, u - u_ref, prob.dt)
+        xs = [simulation.forced_response(structure, {**q, n_: 1.0}, t_rel, u - u_ref, prob.dt)
               - x0 for n_ in linear]
         nuis = [np.ones(n)]
         if spec.integrating and state != "rest":
-            nuis.append(basis.offset_response(structure, q, t_rel) if state == "estimated"
+            nuis.append(regressors.offset_response(structure, q, t_rel) if state == "estimated"
                         else t_rel)
         if state == "estimated":
-            nuis.extend(basis.free_basis(structure, q, t_rel, prob.horizon).T)
+            nuis.extend(regressors.free_basis(structure, q, t_rel, prob.horizon).T)
         stacked = np.column_stack([x0, *xs, *nuis])
         assert prob.reduce(cols).tobytes() == prob.rows(stacked).tobytes()
         assert prob.design_rows(p).tobytes() == prob.rows(stacked).tobytes()

@@ -17,8 +17,8 @@ from pipeline.refine.refinement import RefineOptions, refine
 from pipeline.results import RunResult, parse_results, results_json
 from pipeline.run import analysis_options
 from pipeline.segmentation.detect import event_data
+from pipeline.simulation import forced_response, free_basis
 from pipeline.simulation.engine import simulate
-from pipeline.simulation.regressors import forced_response, free_basis, model_response
 from pipeline.synth import response, staircase, step_record
 
 FOPDT = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 2.0})
@@ -49,7 +49,7 @@ def test_forced_response_is_exact_with_fractional_delays(name):
     ref = _superposed(model, t, u, 1.0)
     got = forced_response(model.structure, dict(model.params), t, u - 1.0) * model.K
     assert np.max(np.abs(got - ref)) < 1e-10
-    assert np.max(np.abs(model_response(model, t, u, 1.0, 3.0) - 3.0 - ref)) < 1e-10
+    assert np.max(np.abs(simulate(model, t, u, 1.0, 3.0) - 3.0 - ref)) < 1e-10
 
 
 def test_free_basis_spans_the_response_to_an_earlier_input():

@@ -25,8 +25,8 @@ import pytest
 
 from pipeline.methods import identify
 from pipeline.models import ProcessModel
+from pipeline.simulation import forced_response
 from pipeline.simulation.engine import simulate
-from pipeline.simulation.regressors import forced_response
 from tests.test_integrating import INT, INT_LAG, RAMP_NOISE, inverse_event, pulse_event, step_event
 
 SEEDS = range(50)

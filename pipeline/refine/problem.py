@@ -20,7 +20,8 @@ import numpy as np
 from ..fit import InitialState
 from ..memory import CHUNK
 from ..models import STRUCTURES
-from ..simulation import each_free_column, forced_response, offset_response, uniform_step
+from ..record import uniform_step
+from ..simulation import UNIFORM_REL_TOL, each_free_column, forced_response, offset_response
 from .lstsq import block_bounds, blocks
 
 
@@ -93,7 +94,7 @@ class Problem:
         starting at the first sample) on the samples of ``mask``, in at most ``max_rows``
         criterion rows."""
         t = np.asarray(t, np.float64)
-        dt = uniform_step(t)
+        dt = uniform_step(t, UNIFORM_REL_TOL)
         # the time since the span start is made once, for the problem and the copies it
         # shares its arrays with (folds), and only where a column needs it: the free
         # response and the input balance (a state not at rest), an irregular grid

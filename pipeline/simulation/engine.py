@@ -1,24 +1,29 @@
-"""Simulation of a :class:`~pipeline.models.ProcessModel` on a measured input.
+"""The simulation engine: a :class:`~pipeline.models.ProcessModel` driven by a measured
+input, exact under a zero-order hold, on uniform and irregular grids.
 
 Everything is in deviation variables from the steady operating point ``(u0, y0)``: the
-state starts at rest, ``y_hat = y0 + G * (u - u0)`` (the lecture's "x(0) = y0", seed 001,
-with the incremental form of ERRATA [S1] 11). The input is held between samples
-(zero-order hold, as a logged command is).
+state starts at rest, ``y_hat = y0 + K x`` with ``x`` the unit-gain response to the held
+input ``u - u0`` (the lecture's "x(0) = y0", seed 001, with the incremental form of
+ERRATA [S1] 11). :func:`forced_response` is that ``x``, the one computation under every
+simulation: validation, plots, the per-step gains and every residual of the least-squares
+fits (:mod:`pipeline.simulation.regressors` adds their free and offset columns).
+:func:`simulate` is ``y0 + K x`` of a model, its filter cached per model.
 
 Two exact paths on a uniform grid:
 
 * a rational model of order <= 2 (every structure but the long and non-integer equal-lag
-  chains): its exact ZOH filter in closed form (:func:`pipeline.simulation.zoh.zoh_filter`,
-  cached per model and sample time) applied by ``scipy.signal.lfilter``; a dead time of a
-  whole number of samples is a sample shift, a fractional one is in the filter's numerator;
+  chains): its exact ZOH filter in closed form (:func:`pipeline.simulation.zoh.filter_of`)
+  applied by ``scipy.signal.lfilter``; the dead time, whole or fractional, is in the
+  filter's leading zeros and numerator;
 * anything else (equal-lag chains up to n = 20, non-integer n): the exact ZOH pulse
   response ``h[k] = S(k dt - delay) - S((k-1) dt - delay)`` from the closed-form step
   response ``S``, applied by FFT convolution. An expanded (Ts+1)^n denominator discretised
   at a short sample time has n poles near 1 and is numerically useless; the pulse response
   has no such problem.
 
-The sample time: pass ``dt`` when it is known (a record's ``sample_time``); otherwise it is
-inferred from ``t`` (one pass over the grid).
+Which grid is uniform is one rule, :func:`pipeline.record.uniform_step` at
+:data:`UNIFORM_REL_TOL`: pass ``dt`` when it is known (a record's ``sample_time``);
+otherwise it is found from ``t`` (one pass over the grid).
 
 Irregular grids (:func:`simulate_irregular`): the state-space form propagated exactly over
 each interval with the input held, one discretisation per distinct interval (within
@@ -26,16 +31,27 @@ each interval with the input held, one discretisation per distinct interval (wit
 ``t - delay``: O(samples) time and memory whatever the grid. A non-integer order n has no
 state space: the exact superposition of closed-form step responses while that is
 affordable, else a uniform grid of bounded size (input held, output interpolated back).
+
+A long input is filtered and convolved :data:`pipeline.memory.CHUNK` samples at a time
+into the one output array (the same numbers as one pass, without the input's deviation
+and the filter's temporaries as long as the record).
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import numpy as np
 from scipy import signal
 
 from ..memory import CHUNK
 from ..models import ProcessModel
-from . import zoh as discretise
+from ..record import uniform_step
+from . import zoh
+
+#: A grid is uniform for the simulator when every interval is within this share of the
+#: mean interval (:func:`pipeline.record.uniform_step`).
+UNIFORM_REL_TOL = 1e-4
 
 
 def simulate(model: ProcessModel, t, u, u0: float, y0: float, *,
@@ -43,7 +59,7 @@ def simulate(model: ProcessModel, t, u, u0: float, y0: float, *,
     """Simulated output at times ``t`` for input ``u`` from the operating point (u0, y0).
 
     ``dt``: the uniform sample time of ``t`` when the caller knows it (trusted, not
-    re-checked); None: inferred from ``t`` (irregular grids take the exact irregular path).
+    re-checked); None: found from ``t`` (irregular grids take the exact irregular path).
     """
     t = np.asarray(t, dtype=np.float64)
     u = np.asarray(u, dtype=np.float64)
@@ -52,55 +68,82 @@ def simulate(model: ProcessModel, t, u, u0: float, y0: float, *,
     if t.size == 1:
         return np.full(1, float(y0))
     if dt is None:
-        dt = uniform_step(t)
+        dt = uniform_step(t, UNIFORM_REL_TOL)
         if dt is None:
             return simulate_irregular(model, t, u, u0, y0)
-    f = discretise.zoh_filter(model, dt)
-    if f is None:
-        out = response(model, float(dt), u - float(u0))
-        out += float(y0)
-        return out
-    # the fast path, written out: one subtraction, the filter, one addition in place
-    n, lag = u.size, f.lag
-    if lag == 0:
-        out = signal.lfilter(f.b, f.a, u - float(u0))
-        out += float(y0)
-        return out
-    out = np.empty(n)
-    out[: min(lag, n)] = float(y0)
-    if lag < n:
-        np.add(signal.lfilter(f.b, f.a, u[: n - lag] - float(u0)), float(y0), out=out[lag:])
-    return out
+    x = _uniform(model.structure, model.params, u, float(dt), float(u0),
+                 zoh.zoh_filter(model, dt), None)
+    x *= model.K  # in place: x is a fresh array
+    x += float(y0)
+    return x
 
 
-#: A grid is uniform when every interval is within this share of the mean interval.
-UNIFORM_REL_TOL = 1e-4
-
-
-def uniform_step(t: np.ndarray) -> float | None:
-    """The sample time of ``t`` when the grid is uniform (every interval within
-    :data:`UNIFORM_REL_TOL` of the mean), else None. The mean, not the median of
-    :func:`pipeline.record.infer_sample_time`: no sort (measured: the median made the
-    public call 3x a bare lfilter at 5 k samples); on a uniform grid the two agree to
-    rounding."""
-    d = np.diff(t)
-    mean = float(t[-1] - t[0]) / (t.size - 1)
-    tol = UNIFORM_REL_TOL * mean + 1e-12
-    if mean > 0 and float(d.max()) - mean <= tol and mean - float(d.min()) <= tol:
-        return mean
-    return None
-
-
-def response(model: ProcessModel, dt: float, du: np.ndarray) -> np.ndarray:
-    """Response from rest to the held deviation input ``du`` at sample time ``dt``."""
+def forced_response(structure: str, p: Mapping[str, float], t: np.ndarray, du: np.ndarray,
+                    dt: float | None = None, *, u0: float = 0.0,
+                    minus: np.ndarray | None = None) -> np.ndarray:
+    """The unit-gain response of ``structure`` (parameters ``p``, their gain ignored) from
+    rest to the held input ``du``, a deviation from ``u0`` (subtracted chunk by chunk, so
+    a caller can give the measured input of a long record as it is); ``dt`` is the
+    uniform sample time (None: found from ``t``, irregular grids take the irregular
+    path). With ``minus``, the response less ``minus``, written into ``minus``'s array (a
+    long record's filter subtracts it chunk by chunk: no second record-long array); the
+    same numbers as ``np.subtract(response, minus)``. The filter is made for ``p`` on
+    every call (:func:`pipeline.simulation.zoh.filter_of`): a refinement's search never
+    asks for the same parameters twice."""
     n = du.size
-    f = discretise.zoh_filter(model, dt)
-    if f is not None:
-        y = np.zeros(n)
-        if f.lag < n:
-            y[f.lag:] = signal.lfilter(f.b, f.a, du[: n - f.lag])
-        return y
-    return convolved(pulse_response(model, dt, pulse_length(model, dt, n)), du)
+    if n == 0:
+        x = np.empty(0)
+        return x if minus is None else np.subtract(x, minus, out=minus)
+    dt = uniform_step(t, UNIFORM_REL_TOL) if dt is None else dt
+    if dt is None:
+        unit = ProcessModel(structure, {**p, "K": 1.0})
+        x = simulate_irregular(unit, t, du - u0 if u0 else du, 0.0, 0.0)
+        return x if minus is None else np.subtract(x, minus, out=minus)
+    return _uniform(structure, p, du, float(dt), u0, zoh.filter_of(structure, p, dt), minus)
+
+
+def _uniform(structure: str, p: Mapping[str, float], du: np.ndarray, dt: float, u0: float,
+             f: zoh.Filter | None, minus: np.ndarray | None) -> np.ndarray:
+    """The unit-gain response on a uniform grid: the filter ``f``, or without one the
+    exact pulse response convolved (:func:`forced_response`)."""
+    n = du.size
+    if f is None:
+        m = ProcessModel(structure, {**p, "K": 1.0})
+        x = convolved(pulse_response(m, dt, pulse_length(m, dt, n)), du, u0)
+    elif n > CHUNK:
+        return _filtered(f.b, f.a, f.lag, du, u0, minus)
+    else:
+        if u0:
+            du = du - u0
+        if f.lag >= n:
+            x = np.zeros(n)
+        else:
+            x = signal.lfilter(f.b, f.a, du[: n - f.lag])
+            x = np.concatenate([np.zeros(f.lag), x]) if f.lag else x
+    return x if minus is None else np.subtract(x, minus, out=minus)
+
+
+def _filtered(b: np.ndarray, a: np.ndarray, lag: int, u: np.ndarray, u0: float,
+              minus: np.ndarray | None = None) -> np.ndarray:
+    """``lfilter(b, a, u - u0)`` delayed by ``lag`` samples (zeros before), filtered
+    :data:`pipeline.memory.CHUNK` samples at a time into the one output array (the filter's
+    state carried from chunk to chunk: the same output to the bit), so that the
+    record-long input deviation, the filter's output and its copy shifted by the dead time
+    (three 80 MB arrays at 10 M samples) are one output array; with ``minus`` that array
+    is ``minus``'s, each chunk's output less it (:func:`forced_response`)."""
+    n = u.size
+    out = np.zeros(n) if minus is None else minus
+    if minus is not None:  # the zeros before the dead time, less minus there
+        np.subtract(0.0, out[:lag], out=out[:lag])
+    z = np.zeros(max(a.size, b.size) - 1)
+    for s in range(0, n - lag, CHUNK):
+        e = min(s + CHUNK, n - lag)
+        v, z = signal.lfilter(b, a, u[s:e] - u0 if u0 else u[s:e], zi=z)
+        if minus is None:
+            out[lag + s: lag + e] = v
+        else:
+            np.subtract(v, out[lag + s: lag + e], out=out[lag + s: lag + e])
+    return out
 
 
 def pulse_length(model: ProcessModel, dt: float, n: int) -> int:
@@ -111,7 +154,7 @@ def pulse_length(model: ProcessModel, dt: float, n: int) -> int:
     response over a 10 M-sample record and its temporaries were about 5x its 80 MB."""
     if n <= CHUNK:
         return n
-    mem = discretise.memory(model, dt)
+    mem = zoh.memory(model, dt)
     return n if mem is None else min(n, mem + 1)
 
 
@@ -154,7 +197,7 @@ MAX_GRID = 2_000_000
 def simulate_irregular(model: ProcessModel, t: np.ndarray, u: np.ndarray, u0: float,
                        y0: float) -> np.ndarray:
     """Exact ZOH simulation on an irregular grid (see the module docstring)."""
-    ss = discretise.state_space(model)
+    ss = zoh.state_space(model)
     if ss is None:
         return _irregular_without_state_space(model, t, u, u0, y0)
     A, B, C, D = ss
@@ -170,8 +213,8 @@ def simulate_irregular(model: ProcessModel, t: np.ndarray, u: np.ndarray, u0: fl
     src = np.where(kind == 0, order, -1)
     held = np.maximum.accumulate(src)  # the input sample held at each point (-1: before)
     u_held = np.where(held >= 0, du[np.maximum(held, 0)], 0.0)
-    steps, group = discretise.step_groups(np.diff(pts))
-    Phi, Gam = discretise.transitions(A, B, steps)
+    steps, group = zoh.step_groups(np.diff(pts))
+    Phi, Gam = zoh.transitions(A, B, steps)
     X = _propagate(Phi, Gam[:, :, 0], group, u_held)
     read = kind == 1
     y = X[read] @ C[0] + D[0, 0] * u_held[read]
@@ -231,8 +274,5 @@ def _irregular_without_state_space(model, t, u, u0, y0) -> np.ndarray:
     dt = max(dt, float(t[-1] - t[0]) / MAX_GRID)
     grid = np.arange(t[0], t[-1] + dt / 2, dt)
     idx = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, t.size - 1)
-    yg = float(y0) + response(model, dt, u[idx] - float(u0))
+    yg = simulate(model, grid, u[idx], u0, y0, dt=dt)
     return np.interp(t, grid, yg)
-
-
-_response = response  # the name tests/test_structures.py imports

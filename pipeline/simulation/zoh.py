@@ -1,18 +1,20 @@
-"""Exact zero-order-hold discretisation of the model structures, in closed form and cached.
+"""Exact zero-order-hold discretisation of the model structures, in closed form.
 
-:func:`zoh_filter` gives the recursive filter ``(b, a, lag)`` of a rational structure of
+:func:`filter_of` gives the recursive filter ``(b, a, lag)`` of a rational structure of
 order at most two (every structure of :data:`pipeline.models.STRUCTURES` but the long and
 the non-integer equal-lag chains): its exact ZOH pulse response
 ``h[k] = S(k dt - delay) - S((k-1) dt - delay)`` obeys the recursion of the discrete poles
 ``z_i = exp(s_i dt)`` once the dead time has passed, so the numerator is the exactly
-computed head of ``h`` convolved with the pole polynomial (the modified z-transform;
-Franklin, Powell, Workman, Digital Control of Dynamic Systems, 3rd ed., sec. 4.3.4). The
-poles come in closed form (first order ``a = exp(-dt/T)``; two real lags; a complex pair
-``2 e^{-zeta wn dt} cos(wd dt)``; an integrator's pole at 1), the head from the closed-form
-step response: no matrix exponential per call (``scipy.signal.cont2discrete`` cost 9x a
-bare ``lfilter`` on a 5 k-sample event). The dead time is split as
-:func:`pipeline.simulation.simulate` always did: within 1e-6 of a whole number of samples
-it is that sample shift, otherwise the fractional part enters the head exactly.
+computed head of ``h`` convolved with the pole polynomial: exact for fractional dead
+times too (the modified z-transform; Franklin, Powell, Workman, Digital Control of
+Dynamic Systems, 3rd ed., sec. 4.3.4). The poles come in closed form (first order
+``a = exp(-dt/T)``; two real lags; a complex pair ``2 e^{-zeta wn dt} cos(wd dt)``; an
+integrator's pole at 1), the head from the closed-form step response
+(:func:`pipeline.models.delayed_step`): no matrix exponential per call
+(``scipy.signal.cont2discrete`` cost 9x a bare ``lfilter`` on a 5 k-sample event).
+:func:`zoh_filter` is the same filter of a model, cached (a model simulated again: a fit
+scored, validated, plotted); a refinement's search asks :func:`filter_of` for new
+parameters every time, where a cache would only cost.
 
 :func:`memory` is how many samples back a model's output still depends on the input (its
 pulse response decayed below double precision), so a simulation that is scored only late
@@ -27,6 +29,7 @@ matrix when its poles are distinct, else one batched matrix exponential.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -34,11 +37,12 @@ import numpy as np
 from scipy import linalg, signal
 from scipy.special import gammainccinv
 
-from ..models import ProcessModel
+from ..models import PARAMETERS, STRUCTURES, ProcessModel, Structure, delayed_step
 
-#: A dead time within this many samples of a whole number is that whole number (as the
-#: simulator has always treated it).
-WHOLE_SAMPLE_TOL = 1e-6
+#: Poles of a rational model up to this order are filtered recursively (beyond it an
+#: expanded polynomial with poles near 1 is numerically useless: long equal-lag chains go
+#: through the pulse response, :mod:`pipeline.simulation.engine`).
+MAX_IIR_ORDER = 2
 #: The tail of the pulse response beyond :func:`memory` (relative to the gain).
 MEMORY_TOL = 1e-17
 #: Irregular grids: intervals that agree to this relative tolerance share one
@@ -49,21 +53,38 @@ STEP_REL_TOL = 1e-12
 
 @dataclass(frozen=True)
 class Filter:
-    """``y[k] = lfilter(b, a, du)[k - lag]`` (0 before ``lag``): the exact ZOH response."""
+    """``x[k] = lfilter(b, a, du)[k - lag]`` (0 before ``lag``): the exact ZOH response
+    of a unit-gain model to the held input ``du``."""
 
     b: np.ndarray
     a: np.ndarray
     lag: int
 
 
-def model_key(model: ProcessModel) -> tuple:
-    """A hashable key of ``model`` (structure and parameters)."""
-    return (model.structure, tuple(sorted((k, float(v)) for k, v in model.params.items())))
+def filter_of(structure: str, p: Mapping[str, float], dt: float) -> Filter | None:
+    """The exact ZOH filter of the unit-gain ``structure`` with parameters ``p`` at sample
+    time ``dt`` (see the module docstring), or None when the model is not rational of
+    order 1 to :data:`MAX_IIR_ORDER`."""
+    spec = STRUCTURES[structure]
+    q = {**p, "K": 1.0}
+    a = pole_polynomial(spec, q, dt)
+    if a is None:
+        return None
+    order = a.size - 1
+    # h obeys the pole recursion from sample ceil(delay/dt) + 1 on; the head before that
+    # (and `order` samples more) is computed exactly from the step response
+    delay = float(q.get("delay", 0.0))
+    head = int(math.ceil(delay / dt - 1e-9)) + order + 2
+    h = delayed_step(spec, q, np.arange(head, dtype=np.float64) * dt)
+    h[1:] -= h[:-1].copy()
+    b = np.convolve(h, a)[:head]
+    nz = np.flatnonzero(b)
+    lag = int(nz[0]) if nz.size else head
+    return Filter(b[lag:], a, lag)
 
 
 def zoh_filter(model: ProcessModel, dt: float) -> Filter | None:
-    """The exact ZOH filter of ``model`` at sample time ``dt`` (cached per model and dt),
-    or None when the model is not rational of order 1 or 2."""
+    """:func:`filter_of` of ``model`` (unit gain), cached per model and sample time."""
     # the same model object simulated again (a fit scored, plotted, validated): found by
     # identity, which is safe while the cache holds the object (its id cannot be reused);
     # else by its hashable key. Measured: the key costs 2 us, a third of a 5 k-sample
@@ -71,7 +92,7 @@ def zoh_filter(model: ProcessModel, dt: float) -> Filter | None:
     hit = _BY_ID.get((id(model), dt))
     if hit is not None and hit[0] is model:
         return hit[1]
-    f = _zoh_filter(model_key(model), float(dt))
+    f = _cached_filter(model_key(model), float(dt))
     if len(_BY_ID) >= 256:
         _BY_ID.clear()
     _BY_ID[(id(model), dt)] = (model, f)
@@ -81,53 +102,24 @@ def zoh_filter(model: ProcessModel, dt: float) -> Filter | None:
 _BY_ID: dict[tuple[int, float], tuple[ProcessModel, Filter | None]] = {}
 
 
+def model_key(model: ProcessModel) -> tuple:
+    """A hashable key of ``model`` (structure and parameters)."""
+    return (model.structure, tuple(sorted((k, float(v)) for k, v in model.params.items())))
+
+
 @lru_cache(maxsize=4096)
-def _zoh_filter(key: tuple, dt: float) -> Filter | None:
-    model = ProcessModel(key[0], dict(key[1]))
-    a = pole_polynomial(model, dt)
-    if a is None:
-        return None
-    order = a.size - 1
-    shift = model.delay / dt
-    whole = round(shift)
-    if abs(shift - whole) < WHOLE_SAMPLE_TOL:
-        undelayed, extra = ProcessModel(key[0], {**model.params, "delay": 0.0}), int(whole)
-    else:
-        undelayed, extra = model, 0
-    # h obeys the pole recursion from sample ceil(delay/dt) + order on; the head before
-    # that is computed exactly from the closed-form step response
-    c = int(math.ceil(undelayed.delay / dt - 1e-9))
-    k = np.arange(c + order + 1, dtype=np.float64) * dt
-    h = np.diff(undelayed.unit_step(k), prepend=0.0)
-    b = np.convolve(h, a)[: c + order + 1]
-    nz = np.flatnonzero(b)
-    lag = int(nz[0]) if nz.size else b.size
-    b = b[lag:] if nz.size else np.zeros(1)
-    if not model.integrating:
-        b = _exact_dc_gain(b, a, model.K)
-    for arr in (a, b):
-        arr.setflags(write=False)
-    return Filter(b, a, lag + extra)
+def _cached_filter(key: tuple, dt: float) -> Filter | None:
+    f = filter_of(key[0], dict(key[1]), dt)
+    if f is not None:
+        for arr in (f.a, f.b):
+            arr.setflags(write=False)
+    return f
 
 
-def _exact_dc_gain(b: np.ndarray, a: np.ndarray, K: float) -> np.ndarray:
-    """``b`` with its largest coefficient moved so that the filter's DC gain, with the
-    stored coefficients, is exactly the model's: a ZOH discretisation keeps the gain,
-    ``H(1) = G(0) = K``. With poles near 1 (a sample time far below the time constants)
-    ``sum(a)`` is of the order (dt/T)^2 and the head of ``h`` (differences of a step
-    response near 0) carries rounding of the order of 1e-16, which would put the gain off
-    by 1e-16 (T/dt)^2 (measured 1e-10 at dt = T/300 for two lags; 1e-13 with this)."""
-    target = K * math.fsum(a.tolist())
-    corr = target - math.fsum(b.tolist())
-    scale = float(np.max(np.abs(b)))
-    if scale > 0 and abs(corr) <= 1e-8 * scale:
-        b = b.copy()
-        b[int(np.argmax(np.abs(b)))] += corr
-    return b
-
-
-def _denominator(model: ProcessModel) -> list[float] | None:
-    nd = model.num_den()
+def denominator(spec: Structure, p: Mapping[str, float]) -> list[float] | None:
+    """The denominator in descending powers of s, leading zeros dropped (None: not
+    rational, or not finite)."""
+    nd = spec.num_den(p)
     if nd is None:
         return None
     den = [float(c) for c in nd[1]]
@@ -136,13 +128,43 @@ def _denominator(model: ProcessModel) -> list[float] | None:
     return den if all(math.isfinite(c) for c in den) else None
 
 
-def pole_polynomial(model: ProcessModel, dt: float) -> np.ndarray | None:
+def rational_order(spec: Structure, p: Mapping[str, float]) -> int | None:
+    """Degree of the denominator (None: not rational). The degree of every structure of the
+    table depends on its dimensionless parameters only (the order n), the time constants
+    scale the coefficients; so it is cached on those (an integer-order equal-lag
+    denominator is expensive to expand)."""
+    names = _DIMENSIONLESS.get(spec.name)
+    if names is None:
+        names = _DIMENSIONLESS[spec.name] = tuple(
+            k for k in spec.dynamics if k in PARAMETERS and PARAMETERS[k].kind ==
+            "dimensionless")
+    key = (spec.name, tuple((k, float(p[k])) for k in names))
+    if key not in _ORDERS:
+        nd = spec.num_den(p)
+        den = None if nd is None else [float(c) for c in nd[1]]
+        while den and den[0] == 0.0:
+            den.pop(0)
+        if len(_ORDERS) > 4096:
+            _ORDERS.clear()
+        _ORDERS[key] = None if den is None else len(den) - 1
+    return _ORDERS[key]
+
+
+_ORDERS: dict[tuple, int | None] = {}
+_DIMENSIONLESS: dict[str, tuple[str, ...]] = {}  # a structure's dimensionless parameters
+
+
+def pole_polynomial(spec: Structure, p: Mapping[str, float], dt: float
+                    ) -> np.ndarray | None:
     """``[1, a1 (, a2)]``: the polynomial in z^-1 of the discrete poles ``exp(s_i dt)`` of a
-    rational model of order 1 or 2, in closed form (None otherwise)."""
-    if model.structure == "n_lags" and float(model.params["n"]) not in (1.0, 2.0):
-        return None  # an expanded (Ts+1)^n is numerically useless (pipeline.simulation)
-    den = _denominator(model)
-    return None if den is None else discrete_poles(den, dt)
+    rational model of order 1 to :data:`MAX_IIR_ORDER` (closed forms; None otherwise)."""
+    order = rational_order(spec, p)
+    if order is None or not 1 <= order <= MAX_IIR_ORDER:
+        return None
+    den = denominator(spec, p)
+    if den is None or not 2 <= len(den) <= MAX_IIR_ORDER + 1:
+        return None
+    return discrete_poles(den, dt)
 
 
 def discrete_poles(den: list[float], dt: float) -> np.ndarray | None:
@@ -176,7 +198,7 @@ def memory(model: ProcessModel, dt: float) -> int | None:
             return None
         horizon = p["T"] * float(gammainccinv(p["n"], MEMORY_TOL))
     else:
-        den = _denominator(model)
+        den = denominator(model.spec, model.params)
         if den is None:
             return None
         poles = np.roots(den)
