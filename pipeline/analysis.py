@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from . import memory as heap
 from .events import EventData
 from .fit import Fit
 from .grading import grade, information_criteria, per_step, recommend
@@ -93,9 +92,7 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     recommendation = recommend(result)
     cons = per_step(result, recommendation, states, setting=opt.consistency,
                     options=opt.refine)
-    heap.release()  # the freed windows and columns, before the record-long checks
     graded = grade(replace(result, consistency=cons))
-    heap.release()  # and what the checks freed, before the caller's next stage (a report)
     return replace(graded, recommendation=recommendation)
 
 

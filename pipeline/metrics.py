@@ -30,8 +30,8 @@ def fit_percent(y, y_hat) -> float:
 def fit_percent_of_errors(y: np.ndarray, e: np.ndarray) -> float:
     """``fit_percent(y, y - e)``, the same number, with two record-long copies fewer: the
     residual ``y - (y - e)`` as that computes it, then ``y`` (a fresh array the caller
-    gives up) centred in place (a long validation's held-out samples: 80 MB each at
-    10 M samples)."""
+    gives up) centred in place (each copy as long as a validation's held-out
+    samples)."""
     if y.size == 0:
         return float("nan")
     r = np.subtract(y, e)

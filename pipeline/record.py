@@ -123,7 +123,7 @@ def make_record(
 
     The record holds read-only copies of ``t, u, y``; with ``copy=False`` (a loader whose
     arrays nobody else holds) it holds them as they are, made read-only: a long log is then
-    never copied (issue 14). ``intervals`` are ``np.diff(t)`` when the caller has them
+    never copied. ``intervals`` are ``np.diff(t)`` when the caller has them
     (they are reordered here: the caller gives them away).
     """
     t, u, y = (np.array(a, dtype=np.float64, copy=True) if copy else

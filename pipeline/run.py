@@ -21,12 +21,14 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
+from . import memory
 from .analysis import AnalysisOptions, analyse
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
 from .files import check_writable
 from .io import check_file, files_named, load_record
 from .log import logger
+from .record import Record
 from .report import check_target
 from .results import RecordResult, RunResult, results_json
 from .segmentation import SegmentOptions
@@ -138,6 +140,17 @@ def effective_data(cfg: RunConfig, spec: RecordSpec) -> DataConfig:
 
 # -- one record --------------------------------------------------------------------------
 
+def analysed(record: Record, options: AnalysisOptions, name: str | None = None
+             ) -> RecordResult:
+    """:func:`pipeline.analysis.analyse`, then the C heap's freed pages handed back
+    (:func:`pipeline.memory.release`): a long record's analysis frees thousands of
+    window-sized arrays scattered through the heap, which the next stage (a report, the
+    next record in a worker) could not reuse for its record-long arrays."""
+    res = analyse(record, options, name=name)
+    memory.release()
+    return res
+
+
 def process_record(spec: RecordSpec, cfg: RunConfig) -> RecordResult:
     """Load and analyse one record; a bad record comes back with ``error`` set."""
     try:
@@ -146,7 +159,7 @@ def process_record(spec: RecordSpec, cfg: RunConfig) -> RecordResult:
         record = load_record(Path(spec.path), effective_data(cfg, spec), name=spec.name)
         log.info("%s: loaded %d samples in %.2f s; analysing", spec.name, record.n_samples,
                  time.perf_counter() - t0, extra={"stage": "analyse"})
-        return analyse(record, analysis_options(cfg), name=spec.name)
+        return analysed(record, analysis_options(cfg), name=spec.name)
     except UserError as exc:
         return RecordResult(name=spec.name, source=spec.path, error=exc.message)
 
@@ -161,7 +174,7 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
     if out_dir is not None:
         check_target(out_dir)
     record = load_record(path, data)
-    res = analyse(record, options)
+    res = analysed(record, options)
     if res.error:
         raise UserError(res.error)
     run = RunResult([res], config=f"identify {path}", created=created or now_iso())

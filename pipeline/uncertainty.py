@@ -55,11 +55,11 @@ def autocorrelation(e: np.ndarray, max_lag: int) -> np.ndarray:
 
 #: From this many residuals on, :func:`variance_factor` takes only the leading
 #: autocorrelations it needs: the initial positive sequence usually ends within a few
-#: lags, and the FFT of all ``n // 3`` lags of a 10 M-sample residual costs about 1.5 s
-#: and 800 MB. First :data:`DIRECT_LAGS` direct products, then blockwise FFTs for
-#: :data:`BLOCK_LAGS` lags in turn (:func:`_blockwise_acov`: memory of a few blocks); only
-#: when the sequence has not ended by the last is the whole FFT taken (the same numbers,
-#: to rounding).
+#: lags, and the FFT of all ``n // 3`` lags of a long residual takes time and several
+#: record-long temporaries. First :data:`DIRECT_LAGS` direct products, then blockwise FFTs
+#: for :data:`BLOCK_LAGS` lags in turn (:func:`_blockwise_acov`: memory of a few blocks);
+#: only when the sequence has not ended by the last is the whole FFT taken (the same
+#: numbers, to rounding).
 DIRECT_FROM, DIRECT_LAGS = 4096, 32
 BLOCK_LAGS = (1024, 16384)
 

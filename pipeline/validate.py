@@ -133,7 +133,7 @@ def warmup_correction(model: ProcessModel, t: np.ndarray, error: np.ndarray,
     structure its linear drift extrapolated to ``t_after`` where the drift is beyond three
     standard errors (an input balance point off by that much; extrapolating a drift that
     is only noise would add noise to every later sample). Zero without a warm-up. A
-    constant correction is a number (a run-long array of it was 80 MB at 10 M samples)."""
+    constant correction is a number, not a run-long array of it."""
     if error.size == 0:
         return 0.0
     if model.spec.integrating and error.size >= 4:
@@ -213,10 +213,10 @@ def heldout_residuals(model: ProcessModel, record: Record, events: list[Event],
 def run_errors(sims: list[tuple[slice, np.ndarray] | None], record: Record
                ) -> tuple[np.ndarray, np.ndarray]:
     """``(sample indices, measured - simulated)`` of the simulated runs ``sims``, in their
-    order, filled run by run: no concatenated copies of record-long arrays (issue 14
-    memory). Empties ``sims`` as it goes (each entry set to None once copied), so a
-    simulation is freed once its last run is copied (the runs of one simulated stretch
-    are views of it), not kept beside all the errors."""
+    order, filled run by run: no concatenated copies of record-long arrays. Empties
+    ``sims`` as it goes (each entry set to None once copied), so a simulation is freed
+    once its last run is copied (the runs of one simulated stretch are views of it), not
+    kept beside all the errors."""
     if not sims:
         return np.empty(0, int), np.empty(0)
     n = sum(s.stop - s.start for s, _ in sims)

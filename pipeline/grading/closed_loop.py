@@ -40,8 +40,7 @@ def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
             or np.std(record.u) == 0 or np.std(record.y) == 0:
         return None
     # Spearman's rho with one series' changes held at a time, each made again, sorted,
-    # dropped and ranked (scipy's spearmanr took 1.2 GB at 10 M samples; both series and
-    # both rankings at once 650 MB)
+    # dropped and ranked (not scipy's spearmanr, nor both series and both rankings at once)
     if has_nan(du) or has_nan(dy):
         return None  # no rank for a NaN: rho is NaN, no flag
     del du, dy
@@ -67,9 +66,9 @@ def _change_ranks(v: np.ndarray, keep: np.ndarray | None, doubled: bool = False
                   ) -> np.ndarray:
     """The centred average ranks of ``v``'s sample-to-sample changes (at ``keep``: all
     where None; ``doubled``: twice the ranks, not centred, :func:`pipeline.grading.ranks.
-    ranks_of`), the changes dropped once sorted and the order narrowed after: at 10 M
-    samples the other series' ranks, these changes and their order (80 MB each) are the
-    check's peak."""
+    ranks_of`), the changes dropped once sorted and the order narrowed after: the other
+    series' ranks, these changes and their order, each record-long, are the check's
+    peak."""
     d = np.diff(v)
     if keep is not None:
         d = d[keep]

@@ -28,7 +28,6 @@ import math
 import numpy as np
 from scipy import stats
 
-from .. import memory as heap
 from ..events import Event, EventData
 from ..fit import Fit, Flag
 from ..methods import event_fit, identify
@@ -113,7 +112,6 @@ def event_estimates(record: Record, events: list[Event], states: list[str],
             own[ev.index] = fit
     if not own:
         return []
-    heap.release()  # the refinements' freed windows, before the gains' columns
     gains = step_gains(record, events, reference or next(iter(own.values())).model)
     out = []
     for i, fit in own.items():

@@ -1,14 +1,13 @@
 """Spearman's rank correlation of two long series, lean in memory.
 
 ``scipy.stats.spearmanr`` stacks both series, ranks them with ``apply_along_axis`` and
-keeps several record-long temporaries alive at once: about 1.2 GB for the 10 M
-sample-to-sample changes of a plant-historian log
-(:func:`pipeline.grading.closed_loop.closed_loop_flag`), five times the record's own arrays
-(issue 14). Here each series is ranked on its own
-(average ranks for ties, as ``scipy.stats.rankdata(method="average")``) and the
-temporaries are dropped as soon as they are used; the statistic is the Pearson
-correlation of the ranks (Spearman's rho with ties: Kendall & Gibbons, Rank Correlation
-Methods, 5th ed., 1990, sec. 3.8), the same as scipy's to rounding.
+keeps several record-long temporaries alive at once: for the sample-to-sample changes
+of a long log (:func:`pipeline.grading.closed_loop.closed_loop_flag`), several times the
+record's own arrays. Here each series is ranked on its own (average ranks for ties, as
+``scipy.stats.rankdata(method="average")``) and the temporaries are dropped as soon as
+they are used; the statistic is the Pearson correlation of the ranks (Spearman's rho
+with ties: Kendall & Gibbons, Rank Correlation Methods, 5th ed., 1990, sec. 3.8), the
+same as scipy's to rounding.
 """
 
 from __future__ import annotations
@@ -48,8 +47,8 @@ def sort_groups(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def narrowed(order: np.ndarray) -> np.ndarray:
-    """``order`` as 32-bit positions where they fit (half its memory: at 10 M samples the
-    ranks are made beside it)."""
+    """``order`` as 32-bit positions where they fit (half its memory: the ranks are made
+    beside it)."""
     return order.astype(np.int32) if order.size < 2**31 else order
 
 
@@ -57,8 +56,8 @@ def ranks_of(order: np.ndarray, new: np.ndarray, doubled: bool = False) -> np.nd
     """The average ranks from :func:`sort_groups`, each position's group of ties (its
     first and last sorted position) found and the ranks filled a chunk at a time: the
     ranks are the one record-long array made, beside the groups' starts in the order's
-    integer type (the whole-array ``starts``, ``ends`` and ``(starts + ends + 1) / 2``
-    were 320 MB at 10 M samples); the same values as whole-array passes. ``doubled``:
+    integer type (no record-long ``starts``, ``ends`` or ``(starts + ends + 1) / 2``);
+    the same values as whole-array passes. ``doubled``:
     twice the ranks, as integers (exact: an average rank is a whole or a half number) in
     the order's type where they fit, half the float ranks' memory with a 32-bit order;
     halved, they are the ranks to the bit."""

@@ -10,7 +10,7 @@ columns still moving there. Two exact solvers use that:
   ``[1, moving]`` block turns the problem into a small stacked one with the same
   solution and ``R^T R = X^T X`` (an orthogonal change of rows: Golub & Van Loan, Matrix
   Computations, 4th ed., 2013, sec. 5.3), solved by SVD. Its stacked matrix is still
-  dense in the columns that have settled, so it costs O(events^3): 13 s at 2000 events;
+  dense in the columns that have settled, so it costs O(events^3);
 * :func:`kkt` (from :data:`SPARSE_FROM` columns): a level ``l_g`` per segment, ``l_g =
   c + sum of K_j delta_j`` over the columns settled by then, turns every row into
   ``l_g + sum K_j x_j`` over the moving columns only, and the levels' definitions into
@@ -59,9 +59,8 @@ class Column:
 class _Values:
     """The columns' values for one solve: given ones as they are, the others made on
     demand, kept while their column moves and dropped when it settles (a pass over the
-    segments in order holds the few columns moving at once, not all of them: 2000 steps'
-    columns of a 10 M-sample log were 530 MB). A column made again gives the same
-    values; its squared norm is kept from the first time."""
+    segments in order holds the few columns moving at once, not all of them). A column
+    made again gives the same values; its squared norm is kept from the first time."""
 
     def __init__(self, cols: list[Column]):
         self.cols = cols

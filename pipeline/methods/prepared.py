@@ -1,8 +1,8 @@
-"""Work shared by the methods of one event, done once (issue 14: shared work per event).
+"""Work shared by the methods of one event, done once.
 
 Every graphical step method reads the same normalised response ``h = (y - y0)/dy`` of an
 event, smoothed the same way, and most take its slope somewhere. Computed by each method
-for itself, an event was smoothed about 24 times. Here:
+for itself, an event would be smoothed once for every reading. Here:
 
 * :class:`Response` - a sampled response ``(tau, h, sigma)`` with its smoothed copy
   (:func:`pipeline.signal.smooth`) and the slope of that copy computed once, on first use
@@ -14,8 +14,8 @@ for itself, an event was smoothed about 24 times. Here:
   reason) to every later call. An :class:`~pipeline.events.EventData` is immutable, so
   the result cannot go stale; the cache entry goes with the event (a weak reference).
 
-The readings are the same function calls on the same arrays as before, so the results
-are identical to the bit; only the repetitions are gone.
+The readings are the same function calls on the same arrays as each method's own, so
+the results are identical to the bit; only the repetitions are gone.
 """
 
 from __future__ import annotations

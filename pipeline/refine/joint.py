@@ -137,7 +137,7 @@ def span_options(options: RefineOptions | None, ident: Sequence[int]) -> RefineO
 #: in turn (leave-one-event-out); beyond, event ``k`` joins fold ``k mod MAX_FOLDS``
 #: (interleaved, so every fold spans the record's operating points), and the cost stays
 #: ``MAX_FOLDS`` refits of the span, linear in the record, where leave-one-event-out was
-#: one refit per event (quadratic: 200 events of 5,000 samples took minutes). K-fold
+#: one refit per event of the span (quadratic in the record). K-fold
 #: cross-validation with K = 10 is the usual compromise between the bias of few folds
 #: and the cost of many (Hastie, Tibshirani, Friedman, The Elements of Statistical
 #: Learning, 2nd ed., 2009, sec. 7.10.1).
@@ -160,7 +160,7 @@ def held_out_events(ident: Sequence[int], event: int, at_most: int = MAX_FOLDS
     ``at_most + 1`` events spread evenly over the record, the same for every model,
     less the model's own event (or its last, to keep ``at_most``), so any two models
     are compared on at least ``at_most - 1`` common events. Scoring each one-event model
-    on all the others cost events x samples: minutes, and gigabytes, at 200 events."""
+    on all the others would cost events x samples, quadratic in the record."""
     ident = list(ident)
     others = [i for i in ident if i != event]
     if len(others) <= at_most:
@@ -193,8 +193,8 @@ def cross_validate(record: Record, events: Sequence[Event], ident: Sequence[int]
         # decimated search has a few samples per event: n_lags' folds lost the order
         # there; and every template scored on the whole span is a simulation of it)
         options = replace(options or RefineOptions(), coarse=False)
-    # the pooled squared errors in one buffer, each fold's written as it is scored (the
-    # folds' errors, their concatenation and its square were each as long as the span)
+    # the pooled squared errors in one buffer, each fold's written as it is scored (not
+    # the folds' errors, their concatenation and its square, each as long as the span)
     evs = list(events)
     sizes = [sum(b - a for a, b, _ in validation_runs(evs, held)) for held in held_out]
     squares, at = np.empty(sum(sizes)), 0

@@ -24,7 +24,7 @@ exact refit would choose it again on the fold). A fold whose steps do not conver
 The cost is what makes it worth having: the simulated columns at ``z0`` and its
 finite-difference neighbours do not depend on which samples are in the criterion, so the
 first step of every fold shares ``2 p + 1`` simulations of the span (``p`` searched
-parameters), where an exact refit of each fold took about a hundred.
+parameters), where an exact refit of each fold takes about a hundred.
 """
 
 from __future__ import annotations

@@ -18,8 +18,8 @@ def block_means(v: np.ndarray, m: int) -> np.ndarray:
 def runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The maximal runs of true samples of ``mask``: their first positions and the
     positions after their last. From the mask's one-byte differences: a long span's fit
-    samples as an index array (and its differences) were 16 bytes a sample, these are
-    two (a 10 M-sample span: 160 MB of temporaries, 20 MB here)."""
+    samples as an index array (and its differences) would be 16 bytes a sample, these
+    are two."""
     m = np.asarray(mask, bool)
     if m.size == 0:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)

@@ -169,8 +169,8 @@ class Problem:
         """The design rows at ``p`` of each of ``problems`` (this span and model with other
         masks: cross-validation folds). The span columns are made one at a time
         (:meth:`each_column`) and each is reduced for every problem before the next is
-        made, where :meth:`columns` holds the design's two to six (80 MB each at 10 M
-        samples): on a long span with blocks of rows, one column at a time beside the
+        made, where :meth:`columns` holds the design's two to six, each as long as the
+        span: on a long span with blocks of rows, one column at a time beside the
         free responses' common term of an estimated state (a problem whose every sample
         is a row keeps a copy of each column: a short span); the same rows as
         :meth:`reduce` of :meth:`columns`."""

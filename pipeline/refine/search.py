@@ -42,9 +42,9 @@ FAR_BOUND = 1e-3
 MORE_STARTS = 3
 
 #: Bytes of residual vectors one search keeps to reuse (:func:`multistart`): a one-event
-#: search's hundreds of evaluations of at most 600 rows are all kept; a fit over 2,000
-#: events has 200,000 rows (:data:`pipeline.refine.joint.ROWS_PER_EVENT`), 1.6 MB a residual,
-#: and keeping them all held up to half a gigabyte.
+#: search's hundreds of evaluations of at most 600 rows are all kept; a fit over many
+#: events has :data:`pipeline.refine.joint.ROWS_PER_EVENT` rows per event, and keeping all
+#: its residuals would grow with the events times the evaluations.
 MEMO_BYTES = 32 << 20
 
 #: Start values of dimensionless parameters (templates; the time parameters are scaled).

@@ -110,8 +110,8 @@ def input_threshold(u: np.ndarray, initial_input: float | None, opt: SegmentOpti
 def _mad_sigma(d: np.ndarray) -> float:
     """``1.4826 * median(|d - median(d)|)``, the noise scale of the changes ``d`` (an array
     the caller gives up): both medians partition it in place and the deviations overwrite
-    it, where each median copied it (a median does not depend on the order, so it is the
-    same number; the copies were 240 MB at 10 M samples)."""
+    it, where each median would copy it (a median does not depend on the order, so it is
+    the same number, with no record-long copies)."""
     m = np.median(d, overwrite_input=True)
     np.subtract(d, m, out=d)
     np.abs(d, out=d)

@@ -4,7 +4,7 @@
 (where each departs, where its new plateau starts or where the input is back). Every
 search in it gives exactly the answer of the sample-by-sample loop it replaces
 (``tests/test_edges.py`` checks each against that loop), at a cost linear in samples and
-in events (issue 14; ``benchmarks/segment_speed.py``):
+in events (``benchmarks/segment_speed.py``):
 
 * a forward or backward search looks at chunks that double in size, so it costs about
   twice the distance to its answer, never the rest of the record;

@@ -19,7 +19,7 @@ from ..events import Event
 from ..record import Record
 
 #: Values beyond this magnitude (or under its inverse) are scaled by a power of two before
-#: segmenting: squares, fourth differences and their sums over 10 M samples stay finite
+#: segmenting: squares, fourth differences and their sums over a long record stay finite
 #: and normal. Times beyond the second (their fourth powers are summed) likewise.
 VALUE_RANGE, TIME_RANGE = 2.0 ** 400, 2.0 ** 200
 

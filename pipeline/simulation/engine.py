@@ -129,7 +129,7 @@ def _filtered(b: np.ndarray, a: np.ndarray, lag: int, u: np.ndarray, u0: float,
     :data:`pipeline.memory.CHUNK` samples at a time into the one output array (the filter's
     state carried from chunk to chunk: the same output to the bit), so that the
     record-long input deviation, the filter's output and its copy shifted by the dead time
-    (three 80 MB arrays at 10 M samples) are one output array; with ``minus`` that array
+    (three record-long arrays) are one output array; with ``minus`` that array
     is ``minus``'s, each chunk's output less it (:func:`forced_response`)."""
     n = u.size
     out = np.zeros(n) if minus is None else minus
@@ -150,8 +150,9 @@ def pulse_length(model: ProcessModel, dt: float, n: int) -> int:
     """The samples of the pulse response a convolution over ``n`` samples computes: all
     ``n`` up to :data:`pipeline.memory.CHUNK`; beyond, the model's memory
     (:func:`pipeline.simulation.memory`: past it the pulse response is below 1e-17 of the
-    gain, under :func:`pulse_response`'s cut) plus one, where it has one. A pulse
-    response over a 10 M-sample record and its temporaries were about 5x its 80 MB."""
+    gain, under :func:`pulse_response`'s cut) plus one, where it has one: no pulse
+    response as long as a long record (with its temporaries, several times the record's
+    size)."""
     if n <= CHUNK:
         return n
     mem = zoh.memory(model, dt)
@@ -161,9 +162,9 @@ def pulse_length(model: ProcessModel, dt: float, n: int) -> int:
 def convolved(h: np.ndarray, u: np.ndarray, u0: float = 0.0) -> np.ndarray:
     """``convolve(u - u0, h)[:n]``: FFT (overlap-add) beyond 64 taps. Up to
     :data:`pipeline.memory.CHUNK` samples (or taps) one convolution; beyond, a chunk of the
-    input at a time added into the one output array (the whole input's deviation and the FFT
-    convolution's temporaries over a 10 M-sample record were about 3x its 80 MB; the
-    sums are the whole convolution's in another order: the same to rounding)."""
+    input at a time added into the one output array (no whole-input deviation, and no FFT
+    temporaries as long as the record; the sums are the whole convolution's in another
+    order: the same to rounding)."""
     n = u.size
     conv = signal.oaconvolve if h.size > 64 else np.convolve
     if n <= CHUNK or h.size >= CHUNK:  # (a pulse response this long: chunks save nothing)
