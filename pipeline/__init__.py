@@ -15,7 +15,7 @@ pipeline`` and the command line start fast::
     import pipeline
 
     result = pipeline.identify(t, u, y)          # numpy arrays -> RecordResult
-    fit = result.best                              # fit.model.params, fit.metrics
+    fit = result.recommended                       # fit.model.params, fit.verdict
     record = pipeline.load("log.csv", input="u", output="y", time="t")
     result = pipeline.analyse(record)
 """

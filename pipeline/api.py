@@ -32,7 +32,8 @@ def identify(t, u, y, *, methods: tuple[str, ...] | str = "all",
              events: tuple[int, ...] | str = (0,), initial_input: float | None = None,
              units: dict[str, str] | None = None, name: str = "arrays") -> RecordResult:
     """Identify models from numpy arrays: segment, run the methods on the identification
-    events, validate on the others. ``result.best`` is the ranked-best fit."""
+    events, validate on the others, grade, recommend: ``result.recommended`` is the fit to
+    use (its ``verdict`` and ``flags`` say whether to trust it)."""
     record = make_record(t, u, y, name=name, source=f"<{name}>", units=units,
                          initial_input=initial_input)
     return analyse(record, AnalysisOptions(events=events, methods=methods))

@@ -24,7 +24,6 @@ from .fit import Fit, Flag
 from .record import Record
 from .schema import (
     READABLE_VERSIONS,
-    BestDoc,
     ConsistencyDoc,
     EstimateDoc,
     EventDoc,
@@ -126,18 +125,6 @@ class RecordResult:
     def validation_events(self) -> list[int]:
         return sorted(i for i, r in self.roles.items() if r == "validation")
 
-    def ranking(self, event: int | None = None) -> list[Fit]:
-        """ok fits ranked by validation MSE (ISE when there is no validation data)."""
-        fits = [f for f in self.fits if f.ok and (event is None or f.event == event)]
-        return sorted(fits, key=rank_key)
-
-    @property
-    def best(self) -> Fit | None:
-        """The ranked-best fit of the first identification event."""
-        ident = self.identification_events
-        ranked = self.ranking(ident[0] if ident else None)
-        return ranked[0] if ranked else None
-
     def fit(self, method: str, event: int, events: tuple[int, ...] | None = None
             ) -> Fit | None:
         """The fit of ``method`` on ``event`` (``events``: of a multi-event fit; None:
@@ -154,7 +141,6 @@ class RecordResult:
     def to_doc(self) -> RecordDoc:
         """This record's results.json entry."""
         rec = self.record
-        best = self.best
         return RecordDoc(
             name=self.name, source=rec.source if rec else self.source,
             status="ok" if self.ok else "failed", error=self.error,
@@ -164,8 +150,6 @@ class RecordResult:
             notes=list(rec.notes) if rec else [],
             events=[event_doc(e, self.roles.get(e.index, "unused")) for e in self.events],
             fits=[fit_doc(f) for f in self.fits],
-            best=BestDoc(method=best.method, event=best.event,
-                         events=list(best.events)) if best else None,
             recommended=self._recommended_doc(),
             flags=[flag_doc(x) for x in self.flags],
             consistency=consistency_doc(self.consistency),
@@ -181,13 +165,6 @@ class RecordResult:
             structure=f.model.structure,
             params=_params(f.model.params), ci95=_ci(f.ci95), verdict=f.verdict,
             flags=[flag_doc(x) for x in f.flags], reason=self.recommendation.reason)
-
-
-def rank_key(f: Fit) -> tuple[float, float]:
-    """Sort key: validation MSE, then ISE (NaN last)."""
-    v = f.metrics.get("mse_validation", math.nan)
-    i = f.metrics.get("ise", math.nan)
-    return (v if math.isfinite(v) else math.inf, i if math.isfinite(i) else math.inf)
 
 
 @dataclass(frozen=True)

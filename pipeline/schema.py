@@ -134,7 +134,9 @@ class EventDoc(_Doc):
 
 
 class BestDoc(_Doc):
-    """The ranked-best fit of the first identification event (lowest validation MSE)."""
+    """Written up to pipeline 0.2 (schema 2): the fit of the first identification event with
+    the lowest validation MSE. Read, never written since: ``recommended`` is the one answer
+    (an ISE- or MSE-ranked "best" beside it named another model)."""
 
     method: str
     event: int
@@ -219,7 +221,7 @@ class RecordDoc(_Doc):
     notes: list[str] = Field(default_factory=list)
     events: list[EventDoc] = Field(default_factory=list)
     fits: list[FitDoc] = Field(default_factory=list)
-    best: BestDoc | None = None
+    best: BestDoc | None = None  # read from older documents; always null when written
     recommended: RecommendedDoc | None = None
     flags: list[FlagDoc] = Field(default_factory=list)
     consistency: ConsistencyDoc | None = None

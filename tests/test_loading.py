@@ -38,7 +38,7 @@ def _config(folder: Path, path: str) -> Path:
 def _gain(path: Path, **data) -> float:
     record = pipeline.load(path, **{"input": "u", "output": "y", "time": "time", **data})
     res = analyse(record, AnalysisOptions(methods=("first_order",)))
-    return res.best.model.params["K"]
+    return res.recommended.model.params["K"]
 
 
 # -- 13.1: literal file names ------------------------------------------------------------
@@ -123,7 +123,7 @@ def test_unix_epoch_stamps_at_10_hz_are_a_regular_grid_and_identify(tmp_path):
     rec = pipeline.load(p, input="u", output="y", time="time")
     assert rec.sample_time == pytest.approx(0.1, rel=1e-9)
     assert rec.t[0] == 0.0 and any("epoch stamps" in n for n in rec.notes)
-    fit = analyse(rec, AnalysisOptions(methods=("first_order",))).best.model.params
+    fit = analyse(rec, AnalysisOptions(methods=("first_order",))).recommended.model.params
     assert fit["K"] == pytest.approx(2.0, rel=0.02)
     assert fit["T"] == pytest.approx(5.0, rel=0.05)
 

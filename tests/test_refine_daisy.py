@@ -11,6 +11,7 @@ import pytest
 
 from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.config import load_config
+from pipeline.grading import ranked
 from pipeline.io import load_record
 from pipeline.methods import REGISTRY
 from pipeline.run import analysis_options, effective_data, resolve_specs
@@ -36,8 +37,8 @@ def test_thermal_config_recommended_model(thermal):
     record, options = thermal
     res = analyse(record, options)
     rec = res.recommended
-    graphical = [f for f in res.ranking(0) if REGISTRY[f.method].kind == "graphical"]
-    refined = [f for f in res.ranking(0) if REGISTRY[f.method].kind == "refinement"]
+    graphical = [f for f in ranked(res, 0) if REGISTRY[f.method].kind == "graphical"]
+    refined = [f for f in ranked(res, 0) if REGISTRY[f.method].kind == "refinement"]
     print(f"\nrecommended: {_show(rec)}; validation MSE (events 1-5) "
           f"{rec.metrics['mse_validation']:.2f}; {res.recommendation.reason}")
     print(f"best graphical: {_show(graphical[0])} {graphical[0].metrics['mse_validation']:.2f}")

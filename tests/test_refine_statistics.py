@@ -24,6 +24,7 @@ import pytest
 from scipy.signal import lfilter
 
 from pipeline.analysis import analyse
+from pipeline.grading import ranked
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import ProcessModel
 from pipeline.segmentation.detect import event_data
@@ -75,7 +76,7 @@ def runs() -> dict[str, list[dict]]:
             rec = step_record(truth, u0=2.0, changes=[(2 * ts, 5.0), (10 * ts, 3.0)],
                               t_end=18 * ts, dt=dt, y0=7.0, noise=sigma, seed=seed)
             res = analyse(rec)
-            graphical = [f for f in res.ranking(0) if REGISTRY[f.method].kind == "graphical"]
+            graphical = [f for f in ranked(res, 0) if REGISTRY[f.method].kind == "graphical"]
             rec_fit, best_graph = res.recommended, graphical[0]
             rows.append({"rec": errors(rec_fit.model, truth),
                          "graph": errors(best_graph.model, truth),

@@ -220,24 +220,27 @@ VERDICT_STYLE = {"ok": "bold green", "warning": "bold yellow", "unreliable": "bo
 
 def _rich(t, columns: list[str] | None = None, title: str = "") -> Table:
     """A report table (:class:`pipeline.report.tables.Table`) for the terminal, with only
-    ``columns`` (by name) when given; verdicts in colour."""
+    ``columns`` (by name) when given; verdicts in colour, the recommended row bold."""
     keep = [k for k, c in enumerate(t.columns) if columns is None or c in columns]
     verdicts = [k for k in keep if t.rows and t.rows[0][k].kind == "verdict"]
-    tab = Table(title=title or None)
+    tab = Table(title=title or None,
+                caption="* the recommended model" if t.highlight is not None else None)
     for k in keep:
         tab.add_column(t.columns[k], no_wrap=t.columns[k] in ("method", "verdict"))
     if verdicts:
         tab.add_column("flags", overflow="fold")
-    for row in t.rows:
+    for r, row in enumerate(t.rows):
         cells = []
         for k in keep:
             c = row[k]
             style = VERDICT_STYLE.get(c.text) if c.kind == "verdict" else None
             text = escape(printable(c.text))
+            if r == t.highlight and k == keep[0]:
+                text += " *"
             cells.append(f"[{style}]{text}[/]" if style else text)
         if verdicts:
             cells.append(escape(printable(row[verdicts[0]].note)).replace(", ", " "))
-        tab.add_row(*cells)
+        tab.add_row(*cells, style="bold" if r == t.highlight else None)
     return tab
 
 
@@ -248,9 +251,9 @@ def _print_ranking(res) -> None:
 
     box = recommended_box(res)
     if box is not None:
-        head = "Recommended model" if box["recommended"] else "Best-ranked model"
         style = VERDICT_STYLE.get(box["verdict"], "bold")
-        out.print(f"{head} for {escape(printable(res.name))}: [{style}]{box['verdict']}[/]")
+        out.print(f"Recommended model for {escape(printable(res.name))}: "
+                  f"[{style}]{box['verdict']}[/]")
         out.print(f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
                   f"validation fit {box['fit']} %, MSE {box['mse']})", markup=False)
         out.print(_rich(box["params"]))
@@ -259,11 +262,12 @@ def _print_ranking(res) -> None:
                       f"{escape(printable(f['message']))}")
         out.print(f"  why: {box['reason']}", markup=False)
     has_val = bool(res.validation_events)
-    crit = "MSE (valid.)" if has_val else "ISE (ident.)"
-    columns = ["rank", "method", "verdict", "parameters", crit] + (
-        ["fit % (valid.)"] if has_val else [])
     for i in res.identification_events:
-        out.print(_rich(ranking_table(res, i), columns,
+        table = ranking_table(res, i)
+        crit = table.columns[5]  # the criterion the recommendation decided by
+        columns = ["rank", "method", "verdict", "parameters", crit] + (
+            ["fit % (valid.)"] if has_val else [])
+        out.print(_rich(table, columns,
                         title=escape(printable(f"{res.name}: event {i}, ranked by {crit}"))))
         for f in res.fits:
             if f.event == i and not f.ok:

@@ -1,8 +1,9 @@
 """Run history: one parquet file that grows by one row per record, event and method per run.
 
 Columns (one schema, :data:`SCHEMA`): ``time`` (the run, UTC), ``record``, ``event``,
-``method``, ``status``, ``structure``, ``verdict``, ``best`` (the record's ranked-best
-fit), ``recommended`` (the record's recommended model), one column per parameter of
+``method``, ``status``, ``structure``, ``verdict``, ``recommended`` (the record's
+recommended model; files written before pipeline 0.3 also have ``best``, the ranked-best
+fit, which :func:`pipeline.report.history_plots.recommended_rows` falls back on), one column per parameter of
 :data:`pipeline.models.PARAMETERS` (null when the model has no such parameter), one per
 metric of :class:`pipeline.schema.MetricsDoc` (null when not computed) and
 ``pipeline_version``. A record that failed has one row with null event and method and
@@ -43,7 +44,6 @@ SCHEMA: dict[str, pl.DataType] = {
     "status": pl.String(),
     "structure": pl.String(),
     "verdict": pl.String(),
-    "best": pl.Boolean(),
     "recommended": pl.Boolean(),
     **{p: pl.Float64() for p in PARAMETERS},
     **{m: pl.Float64() for m in METRICS},
@@ -76,7 +76,6 @@ def history_rows(results: ResultsDoc, run_time: datetime | None) -> pl.DataFrame
             rows.append({
                 **base, "event": fit.event, "method": fit.label, "status": fit.status,
                 "structure": fit.structure, "verdict": fit.verdict,
-                "best": rec.best is not None and key == (rec.best.label, rec.best.event),
                 "recommended": rec.recommended is not None
                 and key == (rec.recommended.label, rec.recommended.event),
                 **{p: _number(params.get(p)) for p in PARAMETERS},

@@ -9,8 +9,8 @@ log, the closed-loop check, and the recommended model.
 """
 
 from .consistency import per_step, static_map_note
-from .recommendation import information_criteria, recommend
-from .verdicts import FLAGS, answer, grade, record_verdict
+from .recommendation import CRITERION_NAMES, criterion, information_criteria, ranked, recommend
+from .verdicts import FLAGS, grade, record_verdict
 
-__all__ = ["FLAGS", "answer", "grade", "information_criteria", "per_step", "recommend",
-           "record_verdict", "static_map_note"]
+__all__ = ["CRITERION_NAMES", "FLAGS", "criterion", "grade", "information_criteria",
+           "per_step", "ranked", "recommend", "record_verdict", "static_map_note"]

@@ -100,6 +100,11 @@ def loaded(c: Candidate, result) -> Candidate:
     return c if c.idx is not None else Candidate(c.fit, c.error, *held_out(c.fit, result))
 
 
+#: Each criterion in words (the reasons, the report's ranking).
+CRITERION_NAMES = {"mse_validation": "validation MSE", "mse_cross_validation": "held-out MSE",
+                   "aic": "AIC on the identification event"}
+
+
 def criterion(result) -> str:
     """Which error decides for this record (see the module docstring)."""
     if result.validation_events:
@@ -107,6 +112,22 @@ def criterion(result) -> str:
     if len(result.identification_events) > 1:
         return "mse_cross_validation"
     return "aic"
+
+
+def ranked(result, event: int | None = None) -> list[Fit]:
+    """The ok fits (of the identification ``event``; None: all) in the order of the
+    criterion the recommendation decides by (:func:`criterion`), ISE on the
+    identification event breaking ties; a fit without the criterion last. The per-method
+    table beside the recommendation, not a second answer: the recommended fit need not
+    be first (a simpler structure within the uncertainty wins)."""
+    crit = criterion(result)
+
+    def key(f: Fit) -> tuple[float, float]:
+        v, i = f.metrics.get(crit, math.nan), f.metrics.get("ise", math.nan)
+        return (v if math.isfinite(v) else math.inf, i if math.isfinite(i) else math.inf)
+
+    return sorted((f for f in result.fits if f.ok and (event is None or f.event == event)),
+                  key=key)
 
 
 def held_out(fit: Fit, result) -> tuple[np.ndarray, np.ndarray]:
@@ -195,8 +216,7 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
         if diff <= Z_STRUCTURE * se or equivalent(c, best, noise):
             tied.append((Candidate(c.fit, c.error), diff, se))
     chosen, diff, se = min(tied, key=lambda t: (complexity(t[0].fit), t[0].error))
-    name = {"mse_validation": "validation MSE",
-            "mse_cross_validation": "held-out MSE"}[crit]
+    name = CRITERION_NAMES[crit]
     if chosen.fit is not best.fit or lowest.fit is chosen.fit:
         return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
                                len(cands), f"difference {diff:.3g} +- {se:.2g}, within "
@@ -248,7 +268,8 @@ def measurement_noise(result, idx: np.ndarray) -> float:
     """Variance of the measurement noise on the samples ``idx``: the mean of the squared
     noise estimates of the events they belong to (segmentation's estimate from fourth
     differences, which a smooth misfit does not enter). One binary search per event in
-    the sorted samples (a mask per event was O(events x samples): 20 s at 10 M / 2000)."""
+    the sorted samples instead of a mask per event: linear in the record, not
+    O(events x samples)."""
     s = np.asarray(idx)
     s = s if increasing(s) else np.sort(s)  # held-out samples come in time order
     first = np.searchsorted(s, [e.i_start for e in result.events])
@@ -289,8 +310,8 @@ def paired_difference(c: Candidate, best: Candidate, noise: float) -> tuple[floa
 
 
 def increasing(idx: np.ndarray) -> bool:
-    """Whether ``idx`` is strictly increasing, compared a chunk at a time (``np.diff``
-    of a 10 M-sample index and its comparison were 50 MB)."""
+    """Whether ``idx`` is strictly increasing, compared a chunk at a time (no
+    record-long ``np.diff`` of the index, nor its comparison)."""
     for k in range(0, idx.size - 1, CHUNK):
         e = min(k + CHUNK, idx.size - 1)
         if not bool(np.all(idx[k + 1 : e + 1] > idx[k:e])):
@@ -301,7 +322,8 @@ def increasing(idx: np.ndarray) -> bool:
 def _paired_sums(ec: np.ndarray, eb: np.ndarray) -> tuple[float, float]:
     """``(sum of e_c^2 - e_best^2, sum of (e_c - e_best)^2)``, as ``delta (e_c + e_best)``
     and ``delta^2`` (``delta = e_c - e_best``: no cancellation when the two are close),
-    chunk by chunk (record-long temporaries were most of the recommendation's memory)."""
+    chunk by chunk, so no temporary is as long as the errors (the same sums, to
+    rounding)."""
     s_d = s_2 = 0.0
     for k in range(0, ec.size, CHUNK):
         a, b = ec[k: k + CHUNK], eb[k: k + CHUNK]
@@ -315,7 +337,7 @@ def _by_aic(fits: list[Fit], margin: float) -> Recommendation:
     best = min(fits, key=lambda f: (f.metrics["aic"], complexity(f)))
     tied = [f for f in fits if f.metrics["aic"] <= best.metrics["aic"] + margin]
     chosen = min(tied, key=lambda f: (complexity(f), f.metrics["aic"]))
-    return _recommendation(chosen, best, "AIC on the identification event",
+    return _recommendation(chosen, best, CRITERION_NAMES["aic"],
                            chosen.metrics["aic"], best.metrics["aic"], len(fits),
                            f"within {margin:g} of it", note="one identification event and no "
                            "validation event, so nothing was held out: ")

@@ -95,17 +95,12 @@ def grade(result: RecordResult) -> RecordResult:
     return replace(result, fits=fits, flags=shared)
 
 
-def answer(res: RecordResult) -> Fit | None:
-    """The fit a record's report leads with: the recommended one, else the ranked best."""
-    return res.recommended or res.best
-
-
 def record_verdict(res: RecordResult) -> str:
     """"failed" for a record that could not be analysed, else the answer's verdict (with
     the record-level flags), "unreliable" when there is no model at all."""
     if not res.ok:
         return "failed"
-    fit = answer(res)
+    fit = res.recommended
     if fit is None:
         return "unreliable"
     return fit.verdict or verdict_of(fit.flags + res.flags)

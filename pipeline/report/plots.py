@@ -147,7 +147,7 @@ def criterion_bars(names: list[str], values: list[float], xlabel: str, title: st
         vals = [p[0] for p in pairs]
         ax.barh([p[1] for p in pairs], vals, color="#4c72b0")
         positive = [v for v in vals if v > 0]
-        if positive and max(positive) / max(min(positive), 1e-300) > 50:
+        if len(positive) == len(vals) and max(vals) / min(vals) > 50:
             ax.set_xscale("log")
         for y, v in enumerate(vals):
             ax.annotate(f"{v:.3g}", (v, y), xytext=(3, -3), textcoords="offset points",

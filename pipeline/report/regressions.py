@@ -108,7 +108,7 @@ def mark_summary(summary: Table, comparison: Comparison, names: list[str]) -> Ta
         mark = (Cell("regressed", "verdict") if name in regressed
                 else Cell("new") if name in new else Cell("ok"))
         rows.append(row[:k] + [mark] + row[k:])
-    return Table(columns, rows, summary.highlight_first)
+    return Table(columns, rows, summary.highlight)
 
 
 def gate_lines(comparison: Comparison, baseline: object, limit: int = TERMINAL_RECORDS

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..grading import static_map_note
+from ..grading import CRITERION_NAMES, criterion, ranked, static_map_note
 from ..record import in_time_unit
 from ..results import RecordResult
 from ..schema import fit_label
@@ -36,7 +36,7 @@ ORDER_TITLES = {"first": "first-order models", "second": "second-order models",
 #: rows with a pointer to results.json (Markdown): a 2000-event record stays readable.
 FOLD_ROWS = 20
 #: Identification events shown in full (ranking, plots); the others get one row each in
-#: a compact table of their best models.
+#: a compact table of their first-ranked models.
 DETAILED_EVENTS = 5
 #: Plot modes of a report (``report.plots``): everything, one overview per record, none.
 MODES = ("full", "summary", "none")
@@ -152,23 +152,25 @@ def _ident_context(res: RecordResult, i: int, mode: str, add, anchor: str, dpi: 
                    ) -> dict:
     rec, ev = res.record, res.events[i]
     validation = res.validation_events
-    ranked = res.ranking(i)
-    crit = "mse_validation" if validation else "ise"
+    fits, crit = ranked(res, i), criterion(res)
     out = {"index": i, "kind": ev.kind, "table": ranking_table(res, i),
-           "other": not_ok_rows(res, i),
-           "criterion": "validation MSE" if validation else "ISE on the identification event",
+           "other": not_ok_rows(res, i), "criterion": CRITERION_NAMES[crit],
            "figures": []}
-    if not ranked or mode in ("summary", "none"):
+    if not fits or mode in ("summary", "none"):
         return out
-    unit = rec.units.get("output")
-    sq = f" [{unit}^2]" if unit else ""
+    values = [f.metrics.get(crit, math.nan) for f in fits]
+    if crit == "aic":  # differences from the lowest: an AIC's level means nothing
+        low = min((v for v in values if math.isfinite(v)), default=0.0)
+        values, label = [v - low for v in values], "AIC - lowest AIC"
+    else:
+        unit = rec.units.get("output")
+        label = CRITERION_NAMES[crit] + (f" [{unit}^2]" if unit else "")
     out["figures"].append(add(f"{anchor}_e{i}_ranking", "Methods ranked", plots.criterion_bars(
-        [f.method for f in ranked], [f.metrics.get(crit, math.nan) for f in ranked],
-        f"{'validation MSE' if validation else 'ISE'}{sq if validation else ''}",
+        [f.method for f in fits], values, label,
         f"Event {i}: methods ranked by {out['criterion']} (lower is better)", dpi=dpi)))
     sl = slice(ev.i_start, ev.i_end)
     groups: dict[str, list] = {}
-    for f in ranked:
+    for f in fits:
         groups.setdefault(f.model.order_class, []).append(f)
     for order in sorted(groups, key=list(ORDER_TITLES).index):
         fits = groups[order]

@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..fit import Fit
-from ..grading import answer, record_verdict
+from ..grading import CRITERION_NAMES, criterion, ranked, record_verdict
 from ..methods import REGISTRY
 from ..models import PARAMETERS, STRUCTURES, ProcessModel
 from ..record import Record, in_time_unit
@@ -34,7 +34,7 @@ class Cell:
 class Table:
     columns: list[str]
     rows: list[list[Cell]] = field(default_factory=list)
-    highlight_first: bool = False  # the first row is the answer (the best-ranked model)
+    highlight: int | None = None  # the row of the answer (the recommended model)
 
 
 # -- numbers -----------------------------------------------------------------------------
@@ -143,7 +143,7 @@ def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
     t = Table(["record", "verdict", "events", "model", "K", "dynamics", "delay",
                "validation MSE", "fit %"])
     for r, anchor in zip(results, anchors, strict=True):
-        fit = answer(r)
+        fit = r.recommended
         verdict = record_verdict(r)
         if fit is None:
             t.rows.append([Cell(r.name, href=f"#{anchor}"),
@@ -192,52 +192,62 @@ def response_text(e, record: Record | None) -> str:
 
 
 def ranking_table(res: RecordResult, event: int) -> Table:
-    """The ok fits of one identification event, ranked, with their verdicts."""
-    t = Table(["rank", "method", "verdict", "parameters", "transfer function", "ISE (ident.)",
-               "MSE (valid.)", "fit % (valid.)", "reference"], highlight_first=True)
-    for rank, f in enumerate(res.ranking(event), start=1):
+    """The ok fits of one identification event in the order of the criterion the
+    recommendation decided by (:func:`pipeline.grading.ranked`), with their verdicts; the
+    recommended fit's row is marked (it need not be the first: a simpler structure within
+    the uncertainty wins)."""
+    crit = criterion(res)
+    name = CRITERION_NAMES[crit].replace(" on the identification event", "")
+    fits, chosen = ranked(res, event), res.recommended
+    t = Table(["rank", "method", "verdict", "parameters", "transfer function", name,
+               "ISE (ident.)", "fit % (valid.)", "reference"],
+              highlight=next((k for k, f in enumerate(fits) if f is chosen), None))
+    for rank, f in enumerate(fits, start=1):
         m, info = f.metrics, REGISTRY.get(f.method)
+        title = info.title if info else ""
+        if f is chosen:
+            title = f"recommended · {title}" if title else "recommended"
         t.rows.append([
             Cell(str(rank), "num"),
-            Cell(fit_label(f.method, f.event, list(f.events)), "code",
-                 note=info.title if info else ""),
+            Cell(fit_label(f.method, f.event, list(f.events)), "code", note=title),
             Cell(f.verdict or "-", "verdict", note=", ".join(x.code for x in f.flags)),
             Cell(", ".join(f"{k}={with_ci(f, k, res.record)}" for k in _ordered(f.model.params)
                            if not (k == "delay" and f.model.delay == 0.0))),
-            Cell(display_model(f, res.record).text(), "code"), Cell(fmt(m.get("ise")), "num"),
-            Cell(fmt(m.get("mse_validation")), "num"),
-            Cell(fmt(m.get("fit_percent"), 3), "num"),
+            Cell(display_model(f, res.record).text(), "code"), Cell(fmt(m.get(crit)), "num"),
+            Cell(fmt(m.get("ise")), "num"), Cell(fmt(m.get("fit_percent"), 3), "num"),
             Cell(info.citation if info else "", note="")])
     return t
 
 
 def ident_summary_table(res: RecordResult, events: list[int]) -> Table:
-    """One row per identification event: its best-ranked model (a long record's compact
-    view of the events beyond the detailed ones)."""
-    t = Table(["event", "kind", "best method", "verdict", "parameters", "MSE (valid.)",
-               "ok fits"])
+    """One row per identification event: its first-ranked model by the record's criterion
+    (a long record's compact view of the events beyond the detailed ones)."""
+    crit = criterion(res)
+    t = Table(["event", "kind", "first ranked", "verdict", "parameters",
+               CRITERION_NAMES[crit].replace(" on the identification event", ""), "ok fits"])
     for i in events:
-        ranked = res.ranking(i)
+        fits = ranked(res, i)
         kind = res.events[i].kind if i < len(res.events) else "-"
-        if not ranked:
+        if not fits:
             t.rows.append([Cell(str(i), "num"), Cell(kind), Cell("-"), Cell("-"),
                            Cell("no model"), Cell("-"), Cell("0", "num")])
             continue
-        f = ranked[0]
+        f = fits[0]
         t.rows.append([
             Cell(str(i), "num"), Cell(kind),
-            Cell(fit_label(f.method, f.event, list(f.events)), "code"),
+            Cell(fit_label(f.method, f.event, list(f.events)), "code",
+                 note="recommended" if f is res.recommended else ""),
             Cell(f.verdict or "-", "verdict"),
             Cell(params_text(f.model.params, res.record.units if res.record else None,
                              f.model.structure)),
-            Cell(fmt(f.metrics.get("mse_validation")), "num"), Cell(str(len(ranked)), "num")])
+            Cell(fmt(f.metrics.get(crit)), "num"), Cell(str(len(fits)), "num")])
     return t
 
 
 def recommended_box(res: RecordResult) -> dict | None:
     """What the report's first box shows: the model with units and intervals, its fit, the
     verdict and every flag in plain words, and why it was chosen."""
-    fit = answer(res)
+    fit = res.recommended
     if fit is None:
         return None
     rec, st = res.record, fit.model.structure
@@ -256,12 +266,9 @@ def recommended_box(res: RecordResult) -> dict | None:
                           Cell(unit_of(k, rec, st)), Cell(interval, "num")])
     info = REGISTRY.get(fit.method)
     flags = list(fit.flags) + [f for f in res.flags if f not in fit.flags]
-    reason = (res.recommendation.reason if res.recommendation and res.recommended is fit
-              else "ranked best by the validation error (no recommendation was made)")
     units = ", ".join(f"{k} in {unit_of(k, rec, st)}" for k in _ordered(fit.model.params)
                       if unit_of(k, rec, st))
     return {
-        "recommended": res.recommendation is not None and res.recommended is fit,
         "method": fit.method, "title": info.title if info else fit.method,
         "citation": info.citation if info else "", "event": fit.event,
         "structure": STRUCTURES[st].formula, "tf": display_model(fit, rec).text(),
@@ -271,7 +278,7 @@ def recommended_box(res: RecordResult) -> dict | None:
         "verdict": record_verdict(res),
         "flags": [{"code": f.code, "message": f.message, "severity": f.severity}
                   for f in flags],
-        "reason": reason,
+        "reason": res.recommendation.reason,
     }
 
 
