@@ -21,16 +21,38 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
+import polars as pl
+
 from . import memory
 from .analysis import AnalysisOptions, analyse
+from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
 from .files import check_writable
-from .io import check_file, files_named, load_record
+from .gate import (
+    Comparison,
+    Tolerances,
+    append_history,
+    compare,
+    history_rows,
+    load_baseline,
+    load_history,
+)
+from .grading import record_verdict
+from .io import check_file, dataset, fetch, files_named, load_record
 from .log import logger
 from .record import Record
-from .report import check_target
+from .report import (
+    Extras,
+    baseline_reference,
+    check_target,
+    gate_lines,
+    history_figures,
+    write_junit,
+    write_run,
+)
 from .results import RecordResult, RunResult, results_json
+from .schema import ResultsDoc
 from .segmentation import SegmentOptions
 
 log = logger(__name__)
@@ -86,8 +108,6 @@ def resolve_specs(cfg: RunConfig) -> list[RecordSpec]:
     """
     d = cfg.data
     if d.dataset:
-        from .io import fetch
-
         return [RecordSpec(name=d.dataset, path=str(Path(fetch(d.dataset)).absolute()),
                            dataset=d.dataset)]
     patterns = [d.path] if d.path else list(d.paths or [])
@@ -130,9 +150,7 @@ def effective_data(cfg: RunConfig, spec: RecordSpec) -> DataConfig:
     d = cfg.data
     if not spec.dataset:
         return d
-    from .io import get
-
-    ds = get(spec.dataset)
+    ds = dataset(spec.dataset)
     fill = {"format": ds.format, "columns": ds.columns, "input": ds.input, "output": ds.output,
             "time": ds.time, "units": ds.units or None, "initial_input": ds.initial_input}
     return d.model_copy(update={k: v for k, v in fill.items() if getattr(d, k) is None})
@@ -179,8 +197,6 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
         raise UserError(res.error)
     run = RunResult([res], config=f"identify {path}", created=created or now_iso())
     if out_dir is not None:
-        from .report import write_run
-
         write_run(out_dir, run, run.to_doc(), title=f"Identification of {record.name}")
     return run
 
@@ -220,91 +236,97 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
                 executor: str = "local", scheduler: str | None = None,
                 baseline: Path | None = None, junit: Path | None = None,
                 history: Path | None = None, progress: bool | None = None,
-                created: str | None = None, tolerances=None) -> Outcome:
-    from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
-
+                created: str | None = None, tolerances: Tolerances | None = None) -> Outcome:
     started = time.perf_counter()  # the JUnit file's time
     cfg = config if isinstance(config, RunConfig) else load_config(config)
-    created = created or now_iso()
+    plan = _plan(cfg, out_dir, executor, baseline, junit, history)
+    pool = stack.enter_context(local_pool(workers if executor == "local" else 1,
+                                          len(plan.specs), draws=cfg.report.plots != "none"))
+    records = run_records(plan.specs, cfg, process_record, workers=workers, executor=executor,
+                          scheduler=scheduler, progress=progress, pool=pool)
+    stages = stack.enter_context(Stages(show_progress(progress)))
+    # every record failing still writes the reports, the JUnit file and the history (CI
+    # sees the failures), and exits 2
+    run = RunResult(records, config=cfg.source, created=created or now_iso())
+    doc = run.to_doc()
+    comparison = None if plan.base_doc is None else compare(
+        doc, plan.base_doc, tolerances or Tolerances())
+    run_time = datetime.fromisoformat(run.created)
+    extras = Extras(comparison, _history_figures(doc, plan, run_time, stages))
+
+    def finish() -> None:  # after the report: --history/--junit may point into the folder
+        if history is not None:
+            stages.step("history")
+            append_history(history, doc, run_time)
+        if junit is not None:
+            stages.step("JUnit")
+            write_junit(junit, doc, comparison, time=time.perf_counter() - started)
+
+    # nothing to draw: the sections are tables, built here; else the batch's pool draws
+    stages.step("report sections", total=len(records))
+    with parallel_map(pool if cfg.report.plots != "none" else None, len(records)) as mapper:
+        write_run(plan.target, run, doc, title=cfg.report.title or f"System identification: "
+                  f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
+                  html=cfg.report.html, plots_mode=cfg.report.plots,
+                  mapper=stages.counting(mapper), then=finish)
+    return _outcome(run, comparison, plan.target, baseline)
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What a run checks and reads before its batch (a bad one costs no run): the records
+    (:func:`resolve_specs`), the report folder, the baseline document, and the history
+    file with its rows so far (None: none yet)."""
+
+    specs: list[RecordSpec]
+    target: Path
+    base_doc: ResultsDoc | None
+    history: Path | None
+    past: pl.DataFrame | None
+
+
+def _plan(cfg: RunConfig, out_dir: Path | None, executor: str, baseline: Path | None,
+          junit: Path | None, history: Path | None) -> _Plan:
+    """The checks before the batch: the executor, the records, the output folder and
+    files; the baseline (one of another config, records or methods is refused) and the
+    history read."""
     check_executor(executor)
     specs = resolve_specs(cfg)
-    # the baseline and the history are read, the output files checked, before the batch:
-    # a bad one costs no run
     target = out_dir or cfg.report_folder()  # name is a label: never a path
     check_target(target)
     for path, what in ((junit, "JUnit file"), (history, "history")):
         if path is not None:
             check_writable(path, what)
-    base_doc = past = None
-    if baseline is not None:  # a baseline of another config, records or methods: refused
-        from .gate import load_baseline
+    base_doc = None if baseline is None else load_baseline(
+        baseline, config=cfg.source, records=[s.name for s in specs], methods=cfg.methods)
+    past = load_history(history) if history is not None and Path(history).exists() else None
+    return _Plan(specs, Path(target), base_doc, history, past)
 
-        base_doc = load_baseline(baseline, config=cfg.source, records=[s.name for s in specs],
-                                 methods=cfg.methods)
-    if history is not None and Path(history).exists():
-        from .gate import load_history
 
-        past = load_history(history)
-    pool = stack.enter_context(local_pool(workers if executor == "local" else 1, len(specs),
-                                          draws=cfg.report.plots != "none"))
-    records = run_records(specs, cfg, process_record, workers=workers, executor=executor,
-                          scheduler=scheduler, progress=progress, pool=pool)
-    stages = stack.enter_context(Stages(show_progress(progress)))
-    run = RunResult(records, config=cfg.source, created=created)
-    # every record failing still writes the reports, the JUnit file and the history (CI
-    # sees the failures), and exits 2
-    doc = run.to_doc()
-    from .report import Extras, write_run
+def _history_figures(doc: ResultsDoc, plan: _Plan, run_time: datetime, stages: Stages
+                     ) -> list[tuple[str, bytes]]:
+    """The history plots with this run's rows (the file is appended after the report),
+    normalised to the baseline, else the first run; none without a history."""
+    if plan.history is None:
+        return []
+    stages.step("history plots")
+    rows = history_rows(doc, run_time)
+    frame = rows if plan.past is None else pl.concat([plan.past, rows], how="diagonal_relaxed")
+    return history_figures(frame, reference=None if plan.base_doc is None else
+                           baseline_reference(plan.base_doc))
 
-    extras = Extras()
-    messages: list[str] = []
-    comparison = None
-    if base_doc is not None:
-        from .gate import Tolerances, compare
-        from .report import gate_lines
 
-        comparison = compare(doc, base_doc, tolerances or Tolerances())
-        extras.comparison = comparison
-        messages.extend(gate_lines(comparison, baseline))  # one line per regressed record
-    run_time = datetime.fromisoformat(created)
-    if history is not None:
-        import polars as pl
-
-        from .gate import history_rows
-        from .report import baseline_reference, history_figures
-
-        stages.step("history plots")
-        rows = history_rows(doc, run_time)  # the file is appended after the report
-        frame = rows if past is None else pl.concat([past, rows], how="diagonal_relaxed")
-        extras.history = history_figures(  # normalised to the baseline, else the first run
-            frame, reference=baseline_reference(base_doc) if base_doc is not None else None)
-    # nothing to draw: the sections are tables, built here; else the batch's pool draws
-    draws = pool if cfg.report.plots != "none" else None
-    stages.step("report sections", total=len(records))
-    def finish() -> None:  # after the report: --history/--junit may point into the folder
-        if history is not None:
-            from .gate import append_history
-
-            stages.step("history")
-            append_history(history, doc, run_time)
-        if junit is not None:
-            from .report import write_junit
-
-            stages.step("JUnit")
-            write_junit(junit, doc, comparison, time=time.perf_counter() - started)
-
-    with parallel_map(draws, len(records)) as mapper:
-        write_run(target, run, doc, title=cfg.report.title or f"System identification: "
-                  f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
-                  html=cfg.report.html, plots_mode=cfg.report.plots,
-                  mapper=stages.counting(mapper), then=finish)
-    n_ok = len(records) - len(run.failures)
-    from .grading import record_verdict
-
+def _outcome(run: RunResult, comparison: Comparison | None, target: Path,
+             baseline: Path | None) -> Outcome:
+    """The exit code (all records failed, a regression, some failed, done) and the lines
+    for the user: the counts by verdict, one line per regressed record."""
+    records = run.records
     verdicts = [record_verdict(r) for r in records if r.ok]
     counts = ", ".join(f"{verdicts.count(v)} {v}" for v in ("ok", "warning", "unreliable"))
-    messages.insert(0, f"{n_ok} of {len(records)} record(s) identified ({counts}); reports "
-                       f"in {target}/")
+    messages = [f"{len(records) - len(run.failures)} of {len(records)} record(s) identified "
+                f"({counts}); reports in {target}/"]
+    if comparison is not None:
+        messages.extend(gate_lines(comparison, baseline))
     code = (ExitCode.USER_ERROR if len(run.failures) == len(records)
             else ExitCode.REGRESSION if comparison is not None and not comparison.ok
             else ExitCode.SOME_FAILED if run.failures else ExitCode.OK)

@@ -19,7 +19,7 @@ def test_registry_lists_both_datasets_with_provenance():
 
 def test_fetch_from_mirror_then_cache(monkeypatch):
     p = datasets.fetch("daisy-heating")
-    assert datasets.sha256_of(p) == datasets.get("daisy-heating").sha256
+    assert datasets.sha256_of(p) == datasets.dataset("daisy-heating").sha256
     monkeypatch.setenv(datasets.MIRROR_ENV, "/nonexistent")
     assert datasets.fetch("daisy-heating", offline=True) == p  # served from the cache
 
@@ -28,7 +28,7 @@ def test_corrupt_cache_is_replaced(monkeypatch):
     p = datasets.fetch("tclab-kantor")
     p.write_text("tampered")
     p2 = datasets.fetch("tclab-kantor")
-    assert datasets.sha256_of(p2) == datasets.get("tclab-kantor").sha256
+    assert datasets.sha256_of(p2) == datasets.dataset("tclab-kantor").sha256
 
 
 def test_wrong_checksum_in_mirror_is_refused(tmp_path, monkeypatch):
@@ -51,7 +51,7 @@ def test_unavailable_dataset_says_how_to_get_it(tmp_path, monkeypatch):
 
 def test_unknown_dataset():
     with pytest.raises(UserError, match="unknown dataset 'nope'"):
-        datasets.get("nope")
+        datasets.dataset("nope")
 
 
 def test_cached_copy_has_the_umasks_mode(tmp_path, monkeypatch):

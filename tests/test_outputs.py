@@ -243,12 +243,12 @@ def test_bad_targets_are_one_line_before_the_batch(tmp_path, extra, needle, monk
     c = _cfg(tmp_path)
     (tmp_path / "afile").write_text("x")
     (tmp_path / "jdir").mkdir()
-    import pipeline.batch
+    import pipeline.run
 
     def no_batch(*a, **kw):
         raise AssertionError("the batch ran")
 
-    monkeypatch.setattr(pipeline.batch, "run_records", no_batch)
+    monkeypatch.setattr(pipeline.run, "run_records", no_batch)
     r = runner.invoke(app, ["run", str(c), *[a.replace("{d}", str(tmp_path)) for a in extra]])
     assert r.exit_code == 2, r.output
     assert len(r.stderr.strip().splitlines()) == 1 and needle in r.stderr, r.stderr

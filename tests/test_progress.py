@@ -8,8 +8,8 @@ from __future__ import annotations
 import pytest
 from typer.testing import CliRunner
 
-import pipeline.batch
 import pipeline.batch.pool as pool
+import pipeline.run
 from pipeline.batch.progress import Stages, Tracker
 from pipeline.cli.commands import app
 from pipeline.config import load_config
@@ -93,13 +93,13 @@ def test_one_pool_for_records_and_plots(tmp_path, monkeypatch, plots, pools):
 
     monkeypatch.setattr(pool, "ProcessPoolExecutor", Counting)
     drawn = []
-    real_map = pipeline.batch.parallel_map
+    real_map = pipeline.run.parallel_map
 
     def spy(pool, n, *a):
         drawn.append(pool is not None)
         return real_map(pool, n, *a)
 
-    monkeypatch.setattr(pipeline.batch, "parallel_map", spy)
+    monkeypatch.setattr(pipeline.run, "parallel_map", spy)
     out = run_config(_config(tmp_path, plots), workers=2, out_dir=tmp_path / "out",
                      progress=False)
     assert out.exit_code == 0 and len(started) == pools

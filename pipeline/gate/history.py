@@ -3,10 +3,10 @@
 Columns (one schema, :data:`SCHEMA`): ``time`` (the run, UTC), ``record``, ``event``,
 ``method``, ``status``, ``structure``, ``verdict``, ``recommended`` (the record's
 recommended model; files written before pipeline 0.3 also have ``best``, the ranked-best
-fit, which :func:`pipeline.report.history_plots.recommended_rows` falls back on), one column per parameter of
-:data:`pipeline.models.PARAMETERS` (null when the model has no such parameter), one per
-metric of :class:`pipeline.schema.MetricsDoc` (null when not computed) and
-``pipeline_version``. A record that failed has one row with null event and method and
+fit, which :func:`pipeline.report.history_plots.recommended_rows` falls back on), one
+column per parameter of :data:`pipeline.models.PARAMETERS` (null when the model has no
+such parameter), one per metric of :class:`pipeline.schema.MetricsDoc` (null when not
+computed) and ``pipeline_version``. A record that failed has one row with null event and method and
 status ``failed``.
 
 :func:`history_rows` is pure; :func:`append_history` reads the existing file, appends

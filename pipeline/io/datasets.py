@@ -87,7 +87,7 @@ def load_registry(path: Path | None = None) -> dict[str, Dataset]:
     return out
 
 
-def get(name: str) -> Dataset:
+def dataset(name: str) -> Dataset:
     reg = load_registry()
     if name not in reg:
         raise UserError(
@@ -107,7 +107,7 @@ def sha256_of(path: Path) -> str:
 
 def fetch(name: str, *, offline: bool = False) -> Path:
     """Path of the verified local copy of dataset ``name`` (fetched if needed)."""
-    ds = get(name)
+    ds = dataset(name)
     target = cache_dir() / ds.name / ds.file
     if target.is_file():
         if sha256_of(target) == ds.sha256:
