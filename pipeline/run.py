@@ -23,7 +23,7 @@ from pathlib import Path
 
 import polars as pl
 
-from . import memory
+from . import memory, report  # report's names load on first use (matplotlib, Jinja2)
 from .analysis import AnalysisOptions, analyse
 from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
 from .config import DataConfig, RunConfig, load_config
@@ -42,15 +42,6 @@ from .grading import record_verdict
 from .io import check_file, dataset, fetch, files_named, load_record
 from .log import logger
 from .record import Record
-from .report import (
-    Extras,
-    baseline_reference,
-    check_target,
-    gate_lines,
-    history_figures,
-    write_junit,
-    write_run,
-)
 from .results import RecordResult, RunResult, results_json
 from .schema import ResultsDoc
 from .segmentation import SegmentOptions
@@ -190,14 +181,14 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
     else to report).
     """
     if out_dir is not None:
-        check_target(out_dir)
+        report.check_target(out_dir)
     record = load_record(path, data)
     res = analysed(record, options)
     if res.error:
         raise UserError(res.error)
     run = RunResult([res], config=f"identify {path}", created=created or now_iso())
     if out_dir is not None:
-        write_run(out_dir, run, run.to_doc(), title=f"Identification of {record.name}")
+        report.write_run(out_dir, run, run.to_doc(), title=f"Identification of {record.name}")
     return run
 
 
@@ -252,7 +243,7 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     comparison = None if plan.base_doc is None else compare(
         doc, plan.base_doc, tolerances or Tolerances())
     run_time = datetime.fromisoformat(run.created)
-    extras = Extras(comparison, _history_figures(doc, plan, run_time, stages))
+    extras = report.Extras(comparison, _history_figures(doc, plan, run_time, stages))
 
     def finish() -> None:  # after the report: --history/--junit may point into the folder
         if history is not None:
@@ -260,15 +251,16 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
             append_history(history, doc, run_time)
         if junit is not None:
             stages.step("JUnit")
-            write_junit(junit, doc, comparison, time=time.perf_counter() - started)
+            report.write_junit(junit, doc, comparison, time=time.perf_counter() - started)
 
     # nothing to draw: the sections are tables, built here; else the batch's pool draws
     stages.step("report sections", total=len(records))
     with parallel_map(pool if cfg.report.plots != "none" else None, len(records)) as mapper:
-        write_run(plan.target, run, doc, title=cfg.report.title or f"System identification: "
-                  f"{cfg.name}", extras=extras, markdown=cfg.report.markdown,
-                  html=cfg.report.html, plots_mode=cfg.report.plots,
-                  mapper=stages.counting(mapper), then=finish)
+        report.write_run(plan.target, run, doc, title=cfg.report.title or
+                         f"System identification: {cfg.name}", extras=extras,
+                         markdown=cfg.report.markdown, html=cfg.report.html,
+                         plots_mode=cfg.report.plots, mapper=stages.counting(mapper),
+                         then=finish)
     return _outcome(run, comparison, plan.target, baseline)
 
 
@@ -293,7 +285,7 @@ def _plan(cfg: RunConfig, out_dir: Path | None, executor: str, baseline: Path | 
     check_executor(executor)
     specs = resolve_specs(cfg)
     target = out_dir or cfg.report_folder()  # name is a label: never a path
-    check_target(target)
+    report.check_target(target)
     for path, what in ((junit, "JUnit file"), (history, "history")):
         if path is not None:
             check_writable(path, what)
@@ -312,8 +304,8 @@ def _history_figures(doc: ResultsDoc, plan: _Plan, run_time: datetime, stages: S
     stages.step("history plots")
     rows = history_rows(doc, run_time)
     frame = rows if plan.past is None else pl.concat([plan.past, rows], how="diagonal_relaxed")
-    return history_figures(frame, reference=None if plan.base_doc is None else
-                           baseline_reference(plan.base_doc))
+    return report.history_figures(frame, reference=None if plan.base_doc is None else
+                                  report.baseline_reference(plan.base_doc))
 
 
 def _outcome(run: RunResult, comparison: Comparison | None, target: Path,
@@ -326,7 +318,7 @@ def _outcome(run: RunResult, comparison: Comparison | None, target: Path,
     messages = [f"{len(records) - len(run.failures)} of {len(records)} record(s) identified "
                 f"({counts}); reports in {target}/"]
     if comparison is not None:
-        messages.extend(gate_lines(comparison, baseline))
+        messages.extend(report.gate_lines(comparison, baseline))
     code = (ExitCode.USER_ERROR if len(run.failures) == len(records)
             else ExitCode.REGRESSION if comparison is not None and not comparison.ok
             else ExitCode.SOME_FAILED if run.failures else ExitCode.OK)

@@ -56,3 +56,18 @@ def test_shipped_catalogue_is_the_generated_one():
     assert shipped == generated_text(), "regenerate: python -m pipeline.cli.catalogue " \
         "> pipeline/data/methods.json"
     assert all(tuple(m) == FIELDS for m in catalogue())
+
+
+def test_identify_without_a_report_loads_no_report_library(tmp_path):
+    """``identify --json`` makes no report: matplotlib and Jinja2 are never imported (they
+    were 30 MB of the process's peak on DaISy when run.py imported the report's names)."""
+    import math
+
+    rows = [f"{x:.1f},{float(x >= 5)},{2 * -math.expm1(-max(x - 5, 0) / 2)}"
+            for x in (0.1 * k for k in range(200))]
+    (tmp_path / "log.csv").write_text("time,u,y\n" + "\n".join(rows) + "\n")
+    heavy, stdout = imported_heavy(["identify", str(tmp_path / "log.csv"), "--input", "u",
+                                    "--output", "y", "--time", "time", "--method",
+                                    "first_order", "--json"])
+    assert '"recommended"' in stdout  # it ran
+    assert "matplotlib" not in heavy and "jinja2" not in heavy
