@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 
 from .events import EventData
 from .fit import Fit
-from .grading import grade, information_criteria, per_step, recommend
+from .grading import grade, information_criteria, no_usable_model, per_step, recommend
 from .methods import REGISTRY, event_fit, identify, select_methods
 from .metrics import mse
 from .record import Record
@@ -89,10 +89,16 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
         fits = [_held_out(f, record, events, ident) for f in fits]
     fits = _with_information_criteria(record, events, fits)
     result = replace(base, roles=roles, fits=fits)
-    recommendation = recommend(result)
-    cons = per_step(result, recommendation, states, setting=opt.consistency,
+    # the per-step consistency is judged at the dynamics of a first choice; the
+    # recommendation is then made again from the verdicts and flags grading gave
+    cons = per_step(result, recommend(result), states, setting=opt.consistency,
                     options=opt.refine)
     graded = grade(replace(result, consistency=cons))
+    recommendation = recommend(graded)
+    chosen = graded.fit(recommendation.method, recommendation.event,
+                        recommendation.events) if recommendation else None
+    if chosen is not None and chosen.verdict == "unreliable":  # never the answer
+        return replace(graded, flags=graded.flags + (no_usable_model(graded, chosen),))
     return replace(graded, recommendation=recommendation)
 
 
@@ -163,13 +169,7 @@ def _with_information_criteria(record: Record, events, fits: list[Fit]) -> list[
         if not idx:
             continue
         errors = [identification_residuals(fits[k], record, ev) for k in idx]
-        aics = information_criteria(errors, [_n_params(fits[k]) for k in idx])
+        aics = information_criteria(errors, [fits[k].n_params for k in idx])
         for k, a in zip(idx, aics, strict=True):
             out[k] = replace(fits[k], metrics={**fits[k].metrics, "aic": a})
     return out
-
-
-def _n_params(fit: Fit) -> int:
-    """Estimated parameters of a fit: the model's, plus the offset (and the initial-state
-    coefficients of a refinement)."""
-    return fit.refinement.n_params if fit.is_refined else len(fit.model.spec.params) + 1

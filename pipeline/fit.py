@@ -14,6 +14,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal, get_args
 
+import numpy as np
+
 from .models import ProcessModel
 from .schema import FitStatus, Severity, Verdict
 
@@ -58,6 +60,36 @@ class Fold:
 
 
 @dataclass(frozen=True)
+class ParameterCovariance:
+    """The covariance behind a refinement's intervals, in its search coordinates: for each
+    of ``names`` (the searched parameters, then ``K``) the coordinate is the log of the
+    parameter (``log``) or the parameter over ``scale``; ``z`` the coordinates at the fit,
+    ``matrix`` their covariance (the profiled Jacobian's, with the coloured-noise factor:
+    :func:`pipeline.uncertainty.covariance`). :meth:`draws` are parameter sets the data
+    allow, correlations included (the interval of each parameter alone ignores them)."""
+
+    names: tuple[str, ...]
+    log: tuple[bool, ...]
+    scale: tuple[float, ...]
+    z: tuple[float, ...]
+    matrix: tuple[tuple[float, ...], ...]
+
+    def draws(self, n: int, seed: int = 0) -> list[dict[str, float]]:
+        """``n`` parameter sets from the normal distribution of the coordinates (fixed
+        ``seed``: the same draws every time), mapped back to the parameters."""
+        rng = np.random.default_rng(seed)
+        cov = np.asarray(self.matrix, dtype=np.float64)
+        # the symmetric part's eigen-decomposition, rounding's negative eigenvalues at 0
+        w, vecs = np.linalg.eigh((cov + cov.T) / 2.0)
+        zs = np.asarray(self.z) + (rng.standard_normal((n, w.size)) * np.sqrt(
+            np.maximum(w, 0.0))) @ vecs.T
+        log, scale = np.asarray(self.log), np.asarray(self.scale)
+        with np.errstate(over="ignore"):
+            v = np.where(log, np.exp(np.minimum(zs, 700.0)), zs * scale)
+        return [dict(zip(self.names, map(float, row), strict=True)) for row in v]
+
+
+@dataclass(frozen=True)
 class RefinementSummary:
     """What a least-squares refinement says about itself, beside its model and intervals.
 
@@ -85,6 +117,7 @@ class RefinementSummary:
     interval_method: str
     carried_from: int | None = None
     folds: tuple[Fold, ...] = ()
+    covariance: ParameterCovariance | None = None
 
     @property
     def state_text(self) -> str:
@@ -152,6 +185,15 @@ class Fit:
         """Whether this fit is a least-squares refinement (fitted to all its
         identification data, with intervals and a summary)."""
         return self.refinement is not None
+
+    @property
+    def n_params(self) -> int:
+        """Estimated parameters: a refinement's own count (the model's and the linear
+        nuisances: offset, initial state, input balance), else the model's and the
+        offset."""
+        if self.refinement is not None:
+            return self.refinement.n_params
+        return len(self.model.spec.params) + 1 if self.model is not None else 0
 
     @property
     def balance_point(self) -> float | None:

@@ -6,8 +6,10 @@ prints is generated from them (:func:`json_schema`) and shipped in the package
 report, the regression gate, the history and the JUnit writer read these objects, never
 string keys of a dict.
 
-Versions: ``schema_version`` "2" is this layout. Version 1 (pipeline 0.1, no
-``schema_version`` key) is read too: its objects are a subset of version 2.
+Versions: ``schema_version`` "3" is this layout: a flag's severity may be ``info`` (it
+does not change the verdict), and ``best`` is written as null (the recommended model is
+the one answer). Versions 2 and 1 (pipeline 0.1, no ``schema_version`` key) are read too:
+their objects are a subset of version 3.
 """
 
 from __future__ import annotations
@@ -17,16 +19,16 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-SCHEMA_VERSION = "2"
-READABLE_VERSIONS = ("1", "2")
+SCHEMA_VERSION = "3"
+READABLE_VERSIONS = ("1", "2", "3")
 
 # The vocabularies the results and the runtime types share (pipeline.fit, pipeline.events).
 #: A method's outcome on an event: a model, no model with the reason, or a method bug.
 FitStatus = Literal["ok", "not_applicable", "failed"]
 #: Verdict of a fit that has a model (DESIGN.md "Validation and grading").
 Verdict = Literal["ok", "warning", "unreliable"]
-#: The verdict a flag forces at least.
-Severity = Literal["warning", "unreliable"]
+#: What a flag means for its model: unusable, limited, or information (no limit).
+Severity = Literal["info", "warning", "unreliable"]
 EventKind = Literal["step", "impulse"]
 #: How the output responds to an event (segmentation).
 Response = Literal["settling", "ramp", "level_shift"]
@@ -233,7 +235,7 @@ class ResultsDoc(_Doc):
 
     model_config = ConfigDict(title="pipeline results.json")
 
-    schema_version: Literal["1", "2"] = SCHEMA_VERSION
+    schema_version: Literal["1", "2", "3"] = SCHEMA_VERSION
     pipeline_version: str
     config: str = ""
     created: str = ""

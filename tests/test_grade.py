@@ -192,8 +192,11 @@ def test_a_wide_interval_reads_as_a_number_a_person_can_read():
     base = _graded(ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0}))
     from pipeline.grading.verdicts import _wide_ci
 
+    rec = step_record(FOPDT, u0=2.0, changes=[(20.0, 5.0)], t_end=150.0, dt=0.1, y0=7.0)
+    ev = analyse(rec, AnalysisOptions(methods=FIRST)).events[0]
     for half, text in ((1e302, "±1e+302 times its value"), (3.0, "±300% of its value"),
                        (102.07, "±102 times its value"), (4.8e306, "±4.8e+306 times")):
         fit = replace(base, ci95={"T": (10.0 - half * 10.0, 10.0 + half * 10.0)})
-        flag = _wide_ci(fit, None, None)
-        assert text in flag.message and len(flag.message) < 120, flag.message
+        flag = _wide_ci(fit, ev, rec)
+        assert flag.severity == "warning"  # T from 0 (or its bound) to far out: it matters
+        assert text in flag.message and len(flag.message) < 160, flag.message

@@ -214,7 +214,8 @@ def identify(
         out.print(f"reports written to {out_dir}/ (report.html, report.md, results.json)")
 
 
-VERDICT_STYLE = {"ok": "bold green", "warning": "bold yellow", "unreliable": "bold red",
+VERDICT_STYLE = {"ok": "bold green", "info": "dim", "warning": "bold yellow",
+                 "unreliable": "bold red",
                  "failed": "bold red"}
 
 
@@ -255,12 +256,17 @@ def _print_ranking(res) -> None:
         out.print(f"Recommended model for {escape(printable(res.name))}: "
                   f"[{style}]{box['verdict']}[/]")
         out.print(f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
-                  f"validation fit {box['fit']} %, MSE {box['mse']})", markup=False)
+                  f"{box['scores']})", markup=False)
         out.print(_rich(box["params"]))
         for f in box["flags"]:
             out.print(f"  [{VERDICT_STYLE[f['severity']]}]{f['code']}[/] "
                       f"{escape(printable(f['message']))}")
         out.print(f"  why: {box['reason']}", markup=False)
+    else:
+        out.print(f"No model recommended for {escape(printable(res.name))}: "
+                  f"[{VERDICT_STYLE['unreliable']}]unreliable[/]")
+        for f in res.flags:
+            out.print(f"  [{VERDICT_STYLE[f.severity]}]{f.code}[/] {escape(printable(f.message))}")
     has_val = bool(res.validation_events)
     for i in res.identification_events:
         table = ranking_table(res, i)

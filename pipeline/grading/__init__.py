@@ -10,7 +10,8 @@ log, the closed-loop check, and the recommended model.
 
 from .consistency import per_step, static_map_note
 from .recommendation import CRITERION_NAMES, criterion, information_criteria, ranked, recommend
-from .verdicts import FLAGS, grade, record_verdict
+from .verdicts import FLAGS, grade, no_usable_model, record_verdict
 
 __all__ = ["CRITERION_NAMES", "FLAGS", "criterion", "grade", "information_criteria",
-           "per_step", "ranked", "recommend", "record_verdict", "static_map_note"]
+           "no_usable_model", "per_step", "ranked", "recommend", "record_verdict",
+           "static_map_note"]

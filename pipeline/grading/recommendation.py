@@ -186,20 +186,97 @@ def in_time_order(parts: list[tuple[np.ndarray, np.ndarray, list[tuple[int, int]
     return idx, e
 
 
+def candidates(result, crit: str) -> list[Fit]:
+    """The fits the recommendation chooses from: ok, with a finite criterion; once graded,
+    not unreliable while any other is not; not undetermined (:func:`undetermined`) while a
+    determined one fits within the noise (:func:`fits_within_noise`): the more complex
+    model must earn its parameters, and a model that cannot be trusted is never the answer
+    while another can. A graphical reading stays a candidate: it stands for its structure
+    where the structure's refinement missed (:func:`_representative`)."""
+    fits = [f for f in result.fits if f.ok and f.model is not None
+            and math.isfinite(f.metrics.get(crit, math.nan))]
+    usable = [f for f in fits if f.verdict != "unreliable"]
+    fits = usable or fits
+    within = [f for f in fits if not undetermined(f) and fits_within_noise(f)]
+    return [f for f in fits if not undetermined(f)] if within else fits
+
+
+def earns_parameters(complex_: Fit, simple: Fit, level: float = LEVEL) -> bool:
+    """Whether ``complex_`` fits its identification event significantly better than the
+    simpler ``simple`` on the same event: the likelihood-ratio statistic ``n_eff ln(SSE_s
+    / SSE_c)`` beyond the chi-square quantile at ``level`` with their difference in
+    parameters (Ljung, System Identification, 2nd ed., sec. 16.4; ``n_eff`` for coloured
+    residuals, as in their AIC). Read from their AIC: ``aic = n_eff ln(SSE/n) + 2 k``.
+    False unless both are one-event fits of the same event with an AIC and ``complex_``
+    has more parameters: held-out data that cannot tell two models apart then leave the
+    choice to the identification data, which can (a second lag shows in the rise)."""
+    if complex_.events or simple.events or complex_.event != simple.event:
+        return False
+    a_c, a_s = complex_.metrics.get("aic", math.nan), simple.metrics.get("aic", math.nan)
+    dk = complex_.n_params - simple.n_params
+    if not (math.isfinite(a_c) and math.isfinite(a_s)) or dk <= 0:
+        return False
+    lr = (a_s - 2 * simple.n_params) - (a_c - 2 * complex_.n_params)
+    return lr > float(stats.chi2.ppf(1.0 - level, dk))
+
+
+#: The flags that say a model misses the data beyond the noise (on its own event, on the
+#: events it did not see, or worse than a constant there).
+MISFIT_FLAGS = ("residuals_not_white", "validation_misfit", "poor_fit", "negative_fit",
+                "gain_sign_wrong")
+
+
+def fits_within_noise(fit: Fit) -> bool:
+    """Whether no flag above information says the model misses the data beyond the noise
+    (:data:`MISFIT_FLAGS`)."""
+    return not any(_flagged(fit, code) for code in MISFIT_FLAGS)
+
+
+def undetermined(fit: Fit) -> bool:
+    """Whether a parameter of the fit that matters is not determined by the data: a
+    ``wide_ci`` flag above information (its interval is wide, and the response or the
+    gain moves with it), or a time constant below the sample time (the data only say that
+    part is fast)."""
+    return _flagged(fit, "wide_ci") or _flagged(fit, "dynamics_below_sample_time")
+
+
+def _flagged(fit: Fit, code: str) -> bool:
+    return any(f.code == code and f.severity != "info" for f in fit.flags)
+
+
+def preference(fit: Fit) -> tuple:
+    """How the recommendation orders models it cannot tell apart by their error: the
+    better verdict, determined parameters, a refinement (fitted to all the identification
+    data, with intervals) over a reading, then the simpler structure."""
+    verdicts = ("ok", "warning", "unreliable")
+    rank = verdicts.index(fit.verdict) if fit.verdict in verdicts else 0
+    return (rank, undetermined(fit), not fit.is_refined, complexity(fit))
+
+
+def noise_floor(result) -> float:
+    """The variance the held-out comparisons take as the noise: segmentation's estimate
+    of the measurement noise, or the smallest fit error of a refinement on its own
+    identification data, whichever is larger (slow noise, AR(1) or 1/f, is read too small
+    from the differences; a right model's own residuals are that noise, colour and all,
+    and they do not hold the held-out misfit a wrong model adds)."""
+    own = [f.refinement.mse_fit for f in result.fits
+           if f.ok and f.is_refined and math.isfinite(f.refinement.mse_fit)]
+    return min(own) if own else 0.0
+
+
 def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
               ) -> Recommendation | None:
     """The recommended model of ``result`` (see the module docstring); None without an ok
     fit that has a finite criterion."""
     crit = criterion(result)
-    fits = [f for f in result.fits if f.ok and f.model is not None
-            and math.isfinite(f.metrics.get(crit, math.nan))]
+    fits = candidates(result, crit)
     if not fits:
         return None
     if crit == "aic":
         return _by_aic(fits, aic_margin)
     cands = [Candidate(f, float(f.metrics[crit])) for f in fits]
     lowest = min(cands, key=lambda c: c.error)
-    noise = measurement_noise(result, loaded(lowest, result).idx)
+    noise = max(measurement_noise(result, loaded(lowest, result).idx), noise_floor(result))
     # the lowest's errors are made again where they are needed (below): only two
     # candidates' record-long errors are alive at once, the best's and the one compared
     # with it, not three; at the cost of simulating its held-out events once or twice
@@ -211,11 +288,13 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
         if c.fit is best.fit:
             tied.append((best, 0.0, 0.0))
             continue
+        if earns_parameters(best.fit, c.fit, level):
+            continue  # its own event already tells the simpler model is worse
         c = loaded(c, result)  # one at a time: released after its comparison
         diff, se = paired_difference(c, best, noise)
         if diff <= Z_STRUCTURE * se or equivalent(c, best, noise):
             tied.append((Candidate(c.fit, c.error), diff, se))
-    chosen, diff, se = min(tied, key=lambda t: (complexity(t[0].fit), t[0].error))
+    chosen, diff, se = min(tied, key=lambda t: (*preference(t[0].fit), t[0].error))
     name = CRITERION_NAMES[crit]
     if chosen.fit is not best.fit or lowest.fit is chosen.fit:
         return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
@@ -336,7 +415,7 @@ def _paired_sums(ec: np.ndarray, eb: np.ndarray) -> tuple[float, float]:
 def _by_aic(fits: list[Fit], margin: float) -> Recommendation:
     best = min(fits, key=lambda f: (f.metrics["aic"], complexity(f)))
     tied = [f for f in fits if f.metrics["aic"] <= best.metrics["aic"] + margin]
-    chosen = min(tied, key=lambda f: (complexity(f), f.metrics["aic"]))
+    chosen = min(tied, key=lambda f: (*preference(f), f.metrics["aic"]))
     return _recommendation(chosen, best, CRITERION_NAMES["aic"],
                            chosen.metrics["aic"], best.metrics["aic"], len(fits),
                            f"within {margin:g} of it", note="one identification event and no "

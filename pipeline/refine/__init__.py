@@ -12,6 +12,7 @@ operating point and initial state, and calibrated 95 % intervals.
 """
 
 from .event import (
+    baseline_drift,
     carry_source,
     event_states,
     mismatch,
@@ -22,6 +23,6 @@ from .event import (
 from .joint import fold_models, held_out_events, span_fit
 from .refinement import MIN_DOF, Refinement, RefineOptions, refine
 
-__all__ = ["MIN_DOF", "RefineOptions", "Refinement", "carry_source", "event_states",
-           "fold_models", "held_out_events", "mismatch", "refine", "refine_event",
-           "span_fit", "summary", "unchanged"]
+__all__ = ["MIN_DOF", "RefineOptions", "Refinement", "baseline_drift", "carry_source",
+           "event_states", "fold_models", "held_out_events", "mismatch", "refine",
+           "refine_event", "span_fit", "summary", "unchanged"]

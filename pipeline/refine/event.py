@@ -43,21 +43,29 @@ from .search import candidate_starts
 DRIFT_FRACTION = 0.01
 
 
-def baseline_moving(t: np.ndarray, y: np.ndarray, noise: float, dy: float) -> bool:
-    """Whether the output drifts over the baseline ``t, y``: the straight-line change over
-    it exceeds three standard errors and ``DRIFT_FRACTION`` of ``dy``. The standard error
-    is the line's, from the scatter about it (at least ``noise``) and its colour (slow
-    noise wanders like a drift: a white-noise error bar would call it one)."""
+def baseline_drift(t: np.ndarray, y: np.ndarray, noise: float) -> tuple[float, float]:
+    """``(drift, standard error)`` of the output over the baseline ``t, y``: the
+    straight-line change over it and its standard error, from the scatter about the line
+    (at least ``noise``) and its colour (slow noise wanders like a drift: a white-noise
+    error bar would call it one; :func:`pipeline.uncertainty.variance_factor`). (0, 0)
+    with fewer than four samples."""
     if y.size < 4:
-        return False
+        return 0.0, 0.0
     tc = t - t[0]
     slope, icpt = np.polyfit(tc, y, 1)
     resid = y - (icpt + slope * tc)
-    scatter = max(float(np.std(resid, ddof=2)) if y.size > 2 else 0.0, noise)
+    scatter = max(float(np.std(resid, ddof=2)), noise)
     se = scatter * math.sqrt(variance_factor(resid) / max(float(np.sum((tc - tc.mean())**2)),
                                                           1e-300))
-    drift = abs(float(slope) * float(tc[-1]))
-    return drift > max(3 * se * float(tc[-1]), DRIFT_FRACTION * abs(dy))
+    return abs(float(slope) * float(tc[-1])), se * float(tc[-1])
+
+
+def baseline_moving(t: np.ndarray, y: np.ndarray, noise: float, dy: float) -> bool:
+    """Whether the output drifts over the baseline ``t, y``: its drift
+    (:func:`baseline_drift`) exceeds three standard errors and ``DRIFT_FRACTION`` of
+    ``dy``."""
+    drift, se = baseline_drift(t, y, noise)
+    return drift > max(3 * se, DRIFT_FRACTION * abs(dy))
 
 
 def mismatch(structure: str, ev: Event | EventData) -> str | None:
@@ -200,7 +208,8 @@ def summary(ref: Refinement, carried_from: int | None = None) -> RefinementSumma
         y0=ref.y0, u0=ref.u0, mse_fit=ref.mse, n_fit=int(ref.residuals.size),
         n_eff=ref.n_eff, variance_factor=ref.variance_factor, n_params=ref.n_params,
         std=dict(ref.std), nfev=ref.nfev, runs=ref.n_runs,
-        interval_method=ref.diagnostics.get("interval_method", JACOBIAN_INTERVALS))
+        interval_method=ref.diagnostics.get("interval_method", JACOBIAN_INTERVALS),
+        covariance=ref.covariance)
 
 
 def event_states(record: Record, events: Sequence[Event]) -> list[InitialState]:

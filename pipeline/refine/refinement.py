@@ -43,7 +43,7 @@ from typing import get_args
 
 import numpy as np
 
-from ..fit import InitialState
+from ..fit import InitialState, ParameterCovariance
 from ..models import STRUCTURES, ProcessModel
 from ..uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
 from .lstsq import block_means, project_out, solve
@@ -103,6 +103,7 @@ class Refinement:
     nfev: int
     n_runs: int
     diagnostics: dict = field(default_factory=dict)
+    covariance: ParameterCovariance | None = None
 
     @property
     def mse(self) -> float:
@@ -304,11 +305,17 @@ def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
             ci[n] = (max(float(lo * space.scale[i]), b_lo), min(float(hi * space.scale[i]), b_hi))
             std[n] = float(sd[i] * space.scale[i])
     model, ci, std = _model(prob.structure, p, K, ci, std)
+    names = free + ["K"]
+    if "T1" in names and "T2" in names and model.params["T1"] != p["T1"]:  # swapped
+        names = [{"T1": "T2", "T2": "T1"}.get(n, n) for n in names]
+    cov_z = ParameterCovariance(
+        tuple(names), (*map(bool, space.log), False), (*map(float, space.scale), 1.0),
+        (*map(float, z), K), tuple(tuple(map(float, row)) for row in cov))
     return Refinement(
         model=model, y0=y0, u0=float(u0), ci95=ci, std=std, fitted=fitted, residuals=resid,
         initial_state=initial_state, n_linear=rank, variance_factor=variance_factor(resid),
         nfev=nfev, n_runs=runs, diagnostics={"coefficients": [float(v) for v in c[2:]],
-                                             "rows": int(prob.y.size)})
+                                             "rows": int(prob.y.size)}, covariance=cov_z)
 
 
 def _linear_fit(prob: Problem, p, u_ref: float

@@ -77,7 +77,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     ctx = {"name": res.name, "anchor": anchor, "ok": res.ok, "error": res.error,
            "source": rec.source if rec else res.source,
            "notes": list(rec.notes) if rec else [], "events": None, "ident": [],
-           "box": None, "ident_rest": None, "events_line": ""}
+           "box": None, "ident_rest": None, "events_line": "", "record_flags": []}
     if rec is None:
         return ctx, files
     tu = rec.units.get("time")
@@ -87,6 +87,8 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
                    "input": rec.input_name, "output": rec.output_name,
                    "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
     ctx["box"] = recommended_box(res)
+    ctx["record_flags"] = [{"code": f.code, "message": f.message, "severity": f.severity}
+                           for f in res.flags]
     ctx["events"] = events_table(res)
     ctx["events_line"] = events_line(res)
     if res.events and mode != "none":

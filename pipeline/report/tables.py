@@ -244,6 +244,18 @@ def ident_summary_table(res: RecordResult, events: list[int]) -> Table:
     return t
 
 
+def scores_text(res: RecordResult, fit: Fit) -> str:
+    """How the recommended model scored, in words: the criterion it was chosen by, and
+    its validation fit where there are validation events."""
+    crit = criterion(res)
+    text = f"{CRITERION_NAMES[crit]} {fmt(fit.metrics.get(crit))}"
+    if res.validation_events and crit != "mse_validation":
+        text += f", validation MSE {fmt(fit.metrics.get('mse_validation'))}"
+    if res.validation_events:
+        text = f"validation fit {fmt(fit.metrics.get('fit_percent'), 3)} %, " + text
+    return text
+
+
 def recommended_box(res: RecordResult) -> dict | None:
     """What the report's first box shows: the model with units and intervals, its fit, the
     verdict and every flag in plain words, and why it was chosen."""
@@ -273,8 +285,7 @@ def recommended_box(res: RecordResult) -> dict | None:
         "citation": info.citation if info else "", "event": fit.event,
         "structure": STRUCTURES[st].formula, "tf": display_model(fit, rec).text(),
         "units": units,
-        "params": rows, "fit": fmt(fit.metrics.get("fit_percent"), 3),
-        "mse": fmt(fit.metrics.get("mse_validation")),
+        "params": rows, "scores": scores_text(res, fit),
         "verdict": record_verdict(res),
         "flags": [{"code": f.code, "message": f.message, "severity": f.severity}
                   for f in flags],
