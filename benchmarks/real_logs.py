@@ -75,7 +75,7 @@ def main() -> None:
             print(f"| {name} | {'0' if events != 'all' else 'all'} | {fit.method} | "
                   f"`{fit.model.text(3)}` | {fit.verdict} | {flags} | "
                   f"{m.get('fit_percent', float('nan')):.1f} | {held:.4g} |")
-            seen.append((fit.method, fit.event, fit.verdict))
+            seen.append((fit.method, fit.event, tuple(fit.events), fit.verdict))
         same.append((name, seen[0] == seen[1]))
     print("\nthe same model and verdict with --events 0 and --events all:",
           ", ".join(f"{n}: {'yes' if s else 'no'}" for n, s in same))

@@ -157,3 +157,32 @@ def test_no_usable_model_is_said_not_recommended():
         assert any(f.code == "no_usable_model" for f in res.flags)
     clean = mc_record(PLANTS["two_lags"], Condition("white", 0.01, 4.0), 0)
     assert analyse(clean).recommended is not None
+
+
+def test_a_self_regulating_plant_is_never_given_an_integrator():
+    """Windows of one T (each step long before the output settles): a self-regulating plant
+    is never recommended an integrating model, and no wrong model is "ok" (before issue
+    27 the underdamped plant got an integrator in 9 of 10 seeds); a heater (first order,
+    T 150 s, stepped up and down every 200 s) gets a self-regulating model in at least 95 %
+    of 20 seeds; the integrating twin (an integrator with lag, every window a ramp) keeps
+    its integrator."""
+    given = []
+    for name in ("underdamped_0.6", "two_lags", "fopdt_delay0.05"):
+        for seed in range(5):
+            cond = Condition("white", 0.005, 1.0)
+            fit = analyse(mc_record(PLANTS[name], cond, seed)).recommended
+            if fit is not None:
+                given.append((name, fit.model.integrating, fit.verdict == "ok"
+                              and not score(fit.model, PLANTS[name], cond).right))
+    assert not [g for g in given if g[1] or g[2]], given
+    heater = ProcessModel("first_order", {"K": 0.6, "T": 150.0, "delay": 8.0})
+    changes = [(100.0 + 200.0 * k, lv) for k, lv in enumerate((80.0, 20.0, 70.0, 10.0))]
+    regulating = []
+    for seed in range(20):
+        rec = step_record(heater, u0=0.0, changes=changes, t_end=900.0, dt=1.0, y0=21.0,
+                          noise=0.15, seed=seed)
+        fit = analyse(rec).recommended
+        regulating.append(fit is not None and not fit.model.integrating)
+    assert np.mean(regulating) >= 0.95, regulating
+    ramps = mc_record(PLANTS["integrator_lag"], Condition("white", 0.01, 4.0), 1)
+    assert analyse(ramps).recommended.model.integrating

@@ -191,12 +191,16 @@ def candidates(result, crit: str) -> list[Fit]:
     not unreliable while any other is not; not undetermined (:func:`undetermined`) while a
     determined one fits within the noise (:func:`fits_within_noise`): the more complex
     model must earn its parameters, and a model that cannot be trusted is never the answer
-    while another can. A graphical reading stays a candidate: it stands for its structure
-    where the structure's refinement missed (:func:`_representative`)."""
+    while another can; no integrating model of a record whose responses settle while a
+    self-regulating one is left (``no_integrating_evidence``). A graphical reading stays a
+    candidate: it stands for its structure where the structure's refinement missed
+    (:func:`_representative`)."""
     fits = [f for f in result.fits if f.ok and f.model is not None
             and math.isfinite(f.metrics.get(crit, math.nan))]
     usable = [f for f in fits if f.verdict != "unreliable"]
     fits = usable or fits
+    evident = [f for f in fits if not _flagged(f, "no_integrating_evidence")]
+    fits = evident or fits
     within = [f for f in fits if not undetermined(f) and fits_within_noise(f)]
     return [f for f in fits if not undetermined(f)] if within else fits
 

@@ -56,6 +56,8 @@ FLAGS: dict[str, str] = {
                          "noise: the plant does not behave the same way over the whole log",
     "direction_asymmetry": "steps up and steps down give different gains",
     "no_usable_model": "every model the methods gave is unreliable: none is recommended",
+    "no_integrating_evidence": "an integrating model of a record whose responses settle: "
+                               "no window shows a ramp as long as they show the settling",
 }
 
 SEVERITY_ORDER = ("ok", "warning", "unreliable")
@@ -161,8 +163,38 @@ def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
               _gain_sign, _wide_ci, _overshoot_in_noise, _undershoot_unmodelled)
     out = [f for check in checks if (f := check(fit, ev, rec)) is not None]
     floor = fit_floor(fit, result)
-    extra = (_misfit(fit, ev, rec, floor), _validation_misfit(fit, result, floor))
+    extra = (_misfit(fit, ev, rec, floor), _validation_misfit(fit, result, floor),
+             _integrating_evidence(fit, result))
     return out + [f for f in extra if f is not None]
+
+
+def settling_evidence(events: list[Event]) -> tuple[float, float]:
+    """``(longest window whose step response settles, longest whose response ramps or
+    shifts its level)``, in seconds, as segmentation classified them: a response seen
+    decelerating towards a level over a longer window than any ramp was watched is
+    self-regulating (a short window of a slow lag looks like a ramp; an integrator's
+    ramps stay ramps however long they are watched)."""
+    settle = max((e.t_end - e.t0 for e in events if e.kind == "step"
+                  and e.response == "settling"), default=0.0)
+    ramp = max((e.t_end - e.t0 for e in events if e.response in ("ramp", "level_shift")),
+               default=0.0)
+    return settle, ramp
+
+
+def _integrating_evidence(fit: Fit, result: RecordResult) -> Flag | None:
+    """An integrating model where the record's responses say self-regulating
+    (:func:`settling_evidence`): a warning, and the recommendation passes it over."""
+    if not fit.model.integrating:
+        return None
+    settle, ramp = settling_evidence(result.events)
+    if settle <= ramp:
+        return None
+    rec = result.record
+    return Flag("no_integrating_evidence", f"An integrating model, but the record's step "
+                f"responses settle (over a window of {_t(settle, rec)}) and no window shows "
+                + (f"a ramp that long (the longest: {_t(ramp, rec)})" if ramp else "a ramp")
+                + ": the process is self-regulating, and this model drifts away from the "
+                "data beyond its window.", {"settling_window": settle, "ramp_window": ramp})
 
 
 def own_rms(fit: Fit) -> float:
