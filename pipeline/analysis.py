@@ -22,6 +22,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from .events import EventData
 from .fit import Fit
 from .grading import grade, information_criteria, no_usable_model, per_step, recommend
@@ -66,8 +68,7 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     base = RecordResult(name=name or record.name, source=record.source, record=record)
     events = segment(record, opt.segmentation)
     if not events:
-        return replace(base, error=f"{record.source}: no step or impulse event found in the "
-                                   f"input {record.input_name!r}")
+        return replace(base, error=no_event_message(record))
     base = replace(base, events=events)
     ident = (list(range(len(events))) if opt.events == "all" else sorted(set(opt.events)))
     if not ident:
@@ -100,6 +101,19 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     if chosen is not None and chosen.verdict == "unreliable":  # never the answer
         return replace(graded, flags=graded.flags + (no_usable_model(graded, chosen),))
     return replace(graded, recommendation=recommendation)
+
+
+def no_event_message(record: Record) -> str:
+    """Why a record has no event, and what to do: an input constant over the whole record
+    says its level and that a step just before the first row is declared as the level
+    before it (``initial_input``)."""
+    msg = f"{record.source}: no step or impulse event found in the input {record.input_name!r}"
+    u = record.u
+    if u.size and float(np.max(u) - np.min(u)) <= 1e-9 * max(1.0, float(np.max(np.abs(u)))):
+        msg += (f" (it is constant at {float(u[0]):.6g}); if it stepped to that level just "
+                "before the first row, declare the level before it as initial_input "
+                "(data.initial_input in a config, --initial-input on the command line)")
+    return msg
 
 
 def _event_fits(record: Record, events, i: int, validation: list[int], states: list[str],

@@ -186,3 +186,24 @@ def test_a_self_regulating_plant_is_never_given_an_integrator():
     assert np.mean(regulating) >= 0.95, regulating
     ramps = mc_record(PLANTS["integrator_lag"], Condition("white", 0.01, 4.0), 1)
     assert analyse(ramps).recommended.model.integrating
+
+
+def test_a_record_that_starts_mid_transient_says_to_declare_the_initial_input():
+    """The input already at its new level at the first row: the output's transient is
+    seen before the first visible event, and the record says to declare initial_input; the
+    same record with it declared, and a record that starts at rest, say nothing; an input
+    constant over the whole record is no event, and the error says its level and the
+    remedy."""
+    truth = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0})
+    t = np.arange(0.0, 200.0, 0.2)
+    u = staircase(t, 5.0, [(80.0, 3.0), (140.0, 4.5)])
+    y = response(truth, t, np.where(t >= 0, u, 2.0), 2.0, 7.0, noise=0.02, seed=1)
+    hidden = make_record(t, u, y, name="hidden", source="<hidden>")
+    declared = make_record(t, u, y, name="declared", source="<declared>", initial_input=2.0)
+    at_rest = mc_record(PLANTS["fopdt_delay0.05"], Condition("pink", 0.01, 3.0), 0)
+    found = {r.name: {f.code for f in analyse(r).flags} for r in (hidden, declared, at_rest)}
+    assert "starts_mid_transient" in found["hidden"], found
+    assert "starts_mid_transient" not in found["declared"] | found[at_rest.name], found
+    flat = make_record(t, np.full(t.size, 50.0), y, name="flat", source="<flat>")
+    err = analyse(flat).error
+    assert "constant at 50" in err and "initial_input" in err, err

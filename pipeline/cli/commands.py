@@ -271,7 +271,7 @@ def _print_ranking(res) -> None:
     for i in res.identification_events:
         table = ranking_table(res, i)
         crit = table.columns[5]  # the criterion the recommendation decided by
-        columns = ["rank", "method", "verdict", "parameters", crit] + (
+        columns = ["rank", "method", "verdict", table.columns[3], crit] + (
             ["fit % (valid.)"] if has_val else [])
         out.print(_rich(table, columns,
                         title=escape(printable(f"{res.name}: event {i}, ranked by {crit}"))))

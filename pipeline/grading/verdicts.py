@@ -58,6 +58,8 @@ FLAGS: dict[str, str] = {
     "no_usable_model": "every model the methods gave is unreliable: none is recommended",
     "no_integrating_evidence": "an integrating model of a record whose responses settle: "
                                "no window shows a ramp as long as they show the settling",
+    "starts_mid_transient": "the output is moving at the start while the input is constant: "
+                            "a step just before the first row (declare initial_input)",
 }
 
 SEVERITY_ORDER = ("ok", "warning", "unreliable")
@@ -139,9 +141,42 @@ def record_verdict(res: RecordResult) -> str:
 
 # -- record level ------------------------------------------------------------------------
 
+#: The output's change before the first event, as a share of the largest step response
+#: (and in noise sigmas), beyond which the record starts in the middle of a transient: a
+#: response that large is no wander of the noise, and its curvature is no noise colour
+#: (a line's standard error from its residuals would count the transient as noise).
+START_DRIFT = 0.1
+START_SIGMAS = 10.0
+
+
+def _starts_mid_transient(result: RecordResult) -> Flag | None:
+    """The output drifting before the first event while the input is constant, and no
+    ``initial_input`` declared: the record starts inside the response to a step taken
+    just before its first row, which segmentation cannot see (DaISy's first 6 -> 9 V)."""
+    rec, events = result.record, result.events
+    if rec.initial_input is not None or not events or events[0].i_start < 10:
+        return None
+    first = events[0]
+    t, y = rec.t[: first.i_start], rec.y[: first.i_start]
+    drift = baseline_drift(t, y, first.noise)[0]
+    largest = max(abs(e.y_ss - e.y0) for e in events)
+    if drift <= max(START_SIGMAS * first.noise, START_DRIFT * largest):
+        return None
+    u0 = float(rec.u[0])
+    return Flag("starts_mid_transient", f"The record starts with the output moving (by "
+                f"{drift:.3g}{_unit_of_output(rec)} over the {_t(float(t[-1] - t[0]), rec)} "
+                f"before the first event) while the input holds {u0:.4g}: the input "
+                f"probably stepped to {u0:.4g} just before the first row. Declare the level "
+                "it came from as initial_input to identify that step too.",
+                {"drift": drift, "input": u0})
+
+
 def record_flags(result: RecordResult) -> tuple[Flag, ...]:
     """Findings about the whole log (attached to every fit)."""
     out = []
+    start = _starts_mid_transient(result)
+    if start is not None:
+        out.append(start)
     cl = closed_loop_flag(result.record, result.events)
     if cl is not None:
         out.append(cl)

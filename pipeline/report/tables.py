@@ -103,8 +103,17 @@ def unit_of(name: str, record: Record | None, structure: str | None) -> str:
     return _unit(name, record.units if record else {}, structure)
 
 
+#: The ranking's parameter column: values with their 95 % intervals (:func:`with_ci`).
+PARAMETERS_COLUMN = "parameters (± 95 % half-width)"
+#: An interval whose two sides differ by more than this share is shown as [low, high], not
+#: as a half-width (a log-scale interval of a poorly determined lag is lopsided).
+ASYMMETRIC = 0.25
+
+
 def with_ci(fit: Fit, name: str, record: Record | None = None) -> str:
-    """``value ± half-width`` (in the record's units) when the fit has a 95 % interval."""
+    """The value with its 95 % interval (in the record's units): ``value ± half-width``
+    (the 95 % half-width, two significant digits, the value rounded to the same place), or
+    ``value [low, high]`` when the interval is lopsided (:data:`ASYMMETRIC`)."""
     units, st = (record.units if record else None), fit.model.structure
     v = shown(name, float(fit.model.params[name]), units, st)
     ci = fit.ci95.get(name)
@@ -112,8 +121,23 @@ def with_ci(fit: Fit, name: str, record: Record | None = None) -> str:
         return _value(name, v)
     if not all(b is not None and math.isfinite(b) and abs(b) <= UNBOUNDED for b in ci):
         return f"{_value(name, v)} (unbounded)"
-    half = (shown(name, float(ci[1]), units, st) - shown(name, float(ci[0]), units, st)) / 2
-    return f"{_value(name, v)} ± {fmt(abs(half), 2)}"
+    lo, hi = sorted((shown(name, float(ci[0]), units, st), shown(name, float(ci[1]), units, st)))
+    below, above = v - lo, hi - v
+    if below < 0 or above < 0 or abs(above - below) > ASYMMETRIC * max(above, below):
+        return f"{_value(name, v)} [{fmt(lo, 3)}, {fmt(hi, 3)}]"
+    half = (hi - lo) / 2
+    return f"{_rounded_to(v, half)} ± {fmt(half, 2)}"
+
+
+def _rounded_to(v: float, half: float) -> str:
+    """``v`` to the decimal place of ``half``'s second significant digit (21.2234 with a
+    half-width of 0.53 is 21.22; 58.61 with 12 is 59); as is when ``half`` is 0."""
+    if not (half > 0 and math.isfinite(half)):
+        return fmt(v)
+    place = math.floor(math.log10(half)) - 1
+    if place >= 0:
+        return f"{round(v, -place):.0f}"
+    return f"{v:.{-place}f}"
 
 
 def display_model(fit: Fit, record: Record | None):
@@ -199,7 +223,7 @@ def ranking_table(res: RecordResult, event: int) -> Table:
     crit = criterion(res)
     name = CRITERION_NAMES[crit].replace(" on the identification event", "")
     fits, chosen = ranked(res, event), res.recommended
-    t = Table(["rank", "method", "verdict", "parameters", "transfer function", name,
+    t = Table(["rank", "method", "verdict", PARAMETERS_COLUMN, "transfer function", name,
                "ISE (ident.)", "fit % (valid.)", "reference"],
               highlight=next((k for k, f in enumerate(fits) if f is chosen), None))
     for rank, f in enumerate(fits, start=1):
@@ -263,7 +287,7 @@ def recommended_box(res: RecordResult) -> dict | None:
     if fit is None:
         return None
     rec, st = res.record, fit.model.structure
-    rows = Table(["parameter", "value", "unit", "95 % interval"])
+    rows = Table(["parameter", "value (± 95 % half-width)", "unit", "95 % interval"])
     for k in _ordered(fit.model.params):
         ci = fit.ci95.get(k)
         interval = (f"[{fmt(ci[0])}, {fmt(ci[1])}]" if ci and None not in ci else "-")
