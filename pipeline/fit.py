@@ -10,7 +10,6 @@ size, its folds), which validation, grading and the recommendation read by attri
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Literal, get_args
 
@@ -19,8 +18,7 @@ import numpy as np
 from .models import ProcessModel
 from .schema import FitStatus, Severity, Verdict
 
-#: Fit statuses and verdicts, as tuples (the literals are the schema's).
-STATUSES: tuple[str, ...] = get_args(FitStatus)
+#: The verdicts, best first (the literal is the schema's).
 VERDICTS: tuple[str, ...] = get_args(Verdict)
 
 #: How a simulated span's initial state starts: at rest at the input level before it,
@@ -133,7 +131,7 @@ class RefinementSummary:
     @property
     def sse(self) -> float:
         """The fit's sum of squared errors."""
-        return self.mse_fit * self.n_fit if math.isfinite(self.mse_fit) else math.nan
+        return self.mse_fit * self.n_fit
 
     def as_diagnostics(self, events: tuple[int, ...] = ()) -> dict:
         """The summary as results.json has always carried it in a fit's ``diagnostics``

@@ -1,6 +1,6 @@
-"""Memory on long records: freed memory handed back to the system between the stages of a
-long record's analysis, and the chunk size of the passes that avoid record-long
-temporaries (:data:`CHUNK`).
+"""Memory on long records: freed memory handed back to the system after each analysis (the
+run layer calls :func:`release`, :func:`pipeline.run.analysed`), and the chunk size of the
+passes that avoid record-long temporaries (:data:`CHUNK`).
 
 glibc's allocator keeps freed heap memory for reuse and returns it only from the top of
 the heap; a long record's analysis frees thousands of window-sized arrays (the per-step

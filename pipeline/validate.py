@@ -261,7 +261,7 @@ def identification_residuals(fit, record: Record, ev: Event) -> tuple[float, int
     (:func:`pipeline.uncertainty.variance_factor`)."""
     r = fit.refinement
     if r is not None:
-        return r.mse_fit * r.n_fit, r.n_fit, r.variance_factor
+        return r.sse, r.n_fit, r.variance_factor
     sl = slice(fit_start(ev.i_base, ev.i_start, ev.i_end), ev.i_end)
     e = record.y[sl] - simulate(fit.model, record, sl, ev.u0, ev.y0)
     return float(e @ e), int(e.size), variance_factor(e)

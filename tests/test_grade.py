@@ -152,7 +152,7 @@ def test_a_gross_misfit_is_unreliable_a_small_one_a_warning():
     assert f.severity == "unreliable" and far.verdict == "unreliable"
     assert f.values["fit_percent"] < 50
     assert near.verdict in ("ok", "warning")
-    assert all(x.severity == "warning" for x in near.flags)
+    assert not any(x.severity == "unreliable" for x in near.flags)
 
 
 def test_flag_messages_speak_the_users_time_unit():

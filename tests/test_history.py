@@ -203,6 +203,21 @@ def test_alternating_recommended_method_one_series_per_record_drift_as_ratio():
     assert "validation MSE over runs, relative to the first run" in titles
 
 
+def test_a_history_written_before_0_3_is_appended_to_and_its_best_fits_drawn(tmp_path,
+                                                                           history):
+    """A file written before pipeline 0.3 has a ``best`` column (the ranked-best fit) and
+    runs that named no recommended model: it is still appended to (the new rows leave
+    ``best`` null), and its old runs are drawn on their best fit."""
+    old = _alternating_history().with_columns(pl.lit(None, pl.Boolean()).alias("recommended"))
+    path = tmp_path / "old.parquet"
+    old.write_parquet(path)
+    doc = night_results(sorted((history.parent.parent / "logs").glob("night_*"))[0], 0)
+    df = append_history(path, doc, START + timedelta(days=30))
+    assert df.height == old.height + history_rows(doc, START).height
+    assert df.filter(pl.col("time") > START + timedelta(days=29)).get_column("best").is_null().all()
+    assert recommended_rows(df).height == 6 * 3 + 2  # the old runs' best, the new ones'
+
+
 def test_normalised_to_the_baseline_when_given():
     rows = recommended_rows(_alternating_history())
     ref = {"p0": ("first_order", {"K": 2.2, "T": 5.0, "delay": 0.5}, 0.01)}

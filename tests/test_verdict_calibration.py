@@ -152,9 +152,9 @@ def test_no_usable_model_is_said_not_recommended():
     y = 5.0 + np.repeat(rng.normal(0.0, 2.0, 12), t.size // 12 + 1)[: t.size]
     y += rng.normal(0.0, 0.02, t.size)
     res = analyse(make_record(t, u, y, name="junk", source="<junk>"))
-    assert res.recommended is None or res.recommended.verdict != "unreliable"
-    if res.recommended is None:
-        assert any(f.code == "no_usable_model" for f in res.flags)
+    assert res.recommended is None
+    (flag,) = [f for f in res.flags if f.code == "no_usable_model"]
+    assert flag.severity == "unreliable" and "unreliable -" in flag.message
     clean = mc_record(PLANTS["two_lags"], Condition("white", 0.01, 4.0), 0)
     assert analyse(clean).recommended is not None
 
@@ -191,19 +191,27 @@ def test_a_self_regulating_plant_is_never_given_an_integrator():
 def test_a_record_that_starts_mid_transient_says_to_declare_the_initial_input():
     """The input already at its new level at the first row: the output's transient is
     seen before the first visible event, and the record says to declare initial_input; the
-    same record with it declared, and a record that starts at rest, say nothing; an input
-    constant over the whole record is no event, and the error says its level and the
-    remedy."""
+    same record with it declared, one that starts at rest, and an integrator already
+    ramping steadily at the start (a motor that turns) say nothing; an input constant over
+    the whole record is no event, and the error says its level and the remedy."""
     truth = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0})
     t = np.arange(0.0, 200.0, 0.2)
     u = staircase(t, 5.0, [(80.0, 3.0), (140.0, 4.5)])
-    y = response(truth, t, np.where(t >= 0, u, 2.0), 2.0, 7.0, noise=0.02, seed=1)
+    y = response(truth, t, u, 2.0, 7.0, noise=0.02, seed=1)  # 2 -> 5 just before t = 0
     hidden = make_record(t, u, y, name="hidden", source="<hidden>")
     declared = make_record(t, u, y, name="declared", source="<declared>", initial_input=2.0)
     at_rest = mc_record(PLANTS["fopdt_delay0.05"], Condition("pink", 0.01, 3.0), 0)
-    found = {r.name: {f.code for f in analyse(r).flags} for r in (hidden, declared, at_rest)}
+    motor = ProcessModel("integrator_lag", {"K": 0.05, "T": 5.0, "delay": 1.0})
+    tm = np.arange(-100.0, 200.0, 0.2)  # ramping long before the record starts
+    um = staircase(tm, 3.0, [(80.0, 1.0), (140.0, 3.5)])  # its balance point is 2
+    ym = response(motor, tm, um, 2.0, 7.0, noise=0.01, seed=2)
+    keep = tm >= 0
+    turning = make_record(tm[keep], um[keep], ym[keep], name="turning", source="<turning>")
+    found = {r.name: {f.code for f in analyse(r).flags}
+             for r in (hidden, declared, at_rest, turning)}
     assert "starts_mid_transient" in found["hidden"], found
-    assert "starts_mid_transient" not in found["declared"] | found[at_rest.name], found
+    assert not any("starts_mid_transient" in found[k] for k in
+                   ("declared", at_rest.name, "turning")), found
     flat = make_record(t, np.full(t.size, 50.0), y, name="flat", source="<flat>")
     err = analyse(flat).error
     assert "constant at 50" in err and "initial_input" in err, err

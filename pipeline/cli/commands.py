@@ -248,7 +248,8 @@ def _rich(t, columns: list[str] | None = None, title: str = "") -> Table:
 def _print_ranking(res) -> None:
     """The recommended model first (units, intervals, verdict, flags), then each event's
     ranking with verdicts: the same tables as the report."""
-    from ..report import ranking_table, recommended_box
+    from ..grading import CRITERION_COLUMNS, criterion
+    from ..report import PARAMETERS_COLUMN, ranking_table, recommended_box
 
     box = recommended_box(res)
     if box is not None:
@@ -270,8 +271,8 @@ def _print_ranking(res) -> None:
     has_val = bool(res.validation_events)
     for i in res.identification_events:
         table = ranking_table(res, i)
-        crit = table.columns[5]  # the criterion the recommendation decided by
-        columns = ["rank", "method", "verdict", table.columns[3], crit] + (
+        crit = CRITERION_COLUMNS[criterion(res)]  # the one the recommendation decided by
+        columns = ["rank", "method", "verdict", PARAMETERS_COLUMN, crit] + (
             ["fit % (valid.)"] if has_val else [])
         out.print(_rich(table, columns,
                         title=escape(printable(f"{res.name}: event {i}, ranked by {crit}"))))

@@ -1,9 +1,9 @@
 """Run history: one parquet file that grows by one row per record, event and method per run.
 
 Columns (one schema, :data:`SCHEMA`): ``time`` (the run, UTC), ``record``, ``event``,
-``method``, ``status``, ``structure``, ``verdict``, ``recommended`` (the record's
-recommended model; files written before pipeline 0.3 also have ``best``, the ranked-best
-fit, which :func:`pipeline.report.history_plots.recommended_rows` falls back on), one
+``method``, ``status``, ``structure``, ``verdict``, ``best`` (the ranked-best fit of files
+written before pipeline 0.3, which :func:`pipeline.report.history_plots.recommended_rows`
+falls back on; null since), ``recommended`` (the record's recommended model), one
 column per parameter of :data:`pipeline.models.PARAMETERS` (null when the model has no
 such parameter), one per metric of :class:`pipeline.schema.MetricsDoc` (null when not
 computed) and ``pipeline_version``. A record that failed has one row with null event and method and
@@ -44,6 +44,7 @@ SCHEMA: dict[str, pl.DataType] = {
     "status": pl.String(),
     "structure": pl.String(),
     "verdict": pl.String(),
+    "best": pl.Boolean(),  # the ranked-best fit, written before 0.3; null since
     "recommended": pl.Boolean(),
     **{p: pl.Float64() for p in PARAMETERS},
     **{m: pl.Float64() for m in METRICS},

@@ -42,7 +42,7 @@ import numpy as np
 from scipy import stats
 
 from ..events import Event
-from ..fit import Fit
+from ..fit import VERDICTS, Fit
 from ..memory import CHUNK
 from ..models import ProcessModel
 from ..record import Record
@@ -100,9 +100,11 @@ def loaded(c: Candidate, result) -> Candidate:
     return c if c.idx is not None else Candidate(c.fit, c.error, *held_out(c.fit, result))
 
 
-#: Each criterion in words (the reasons, the report's ranking).
+#: Each criterion in words (the reasons, the report's headings) and as a column's name.
 CRITERION_NAMES = {"mse_validation": "validation MSE", "mse_cross_validation": "held-out MSE",
                    "aic": "AIC on the identification event"}
+CRITERION_COLUMNS = {"mse_validation": "validation MSE", "mse_cross_validation":
+                     "held-out MSE", "aic": "AIC"}
 
 
 def criterion(result) -> str:
@@ -252,15 +254,14 @@ def preference(fit: Fit) -> tuple:
     """How the recommendation orders models it cannot tell apart by their error: the
     better verdict, determined parameters, a refinement (fitted to all the identification
     data, with intervals) over a reading, then the simpler structure."""
-    verdicts = ("ok", "warning", "unreliable")
-    rank = verdicts.index(fit.verdict) if fit.verdict in verdicts else 0
+    rank = VERDICTS.index(fit.verdict) if fit.verdict in VERDICTS else 0
     return (rank, undetermined(fit), not fit.is_refined, complexity(fit))
 
 
 def noise_floor(result) -> float:
-    """The variance the held-out comparisons take as the noise: segmentation's estimate
-    of the measurement noise, or the smallest fit error of a refinement on its own
-    identification data, whichever is larger (slow noise, AR(1) or 1/f, is read too small
+    """The smallest fit error (a variance) of a refinement on its own identification
+    data: :func:`recommend` takes the noise as this or segmentation's estimate of the
+    measurement noise, whichever is larger (slow noise, AR(1) or 1/f, is read too small
     from the differences; a right model's own residuals are that noise, colour and all,
     and they do not hold the held-out misfit a wrong model adds)."""
     own = [f.refinement.mse_fit for f in result.fits
@@ -290,25 +291,29 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
     tied = []
     for c in reps:
         if c.fit is best.fit:
-            tied.append((best, 0.0, 0.0))
+            tied.append((best, ""))
             continue
         if earns_parameters(best.fit, c.fit, level):
             continue  # its own event already tells the simpler model is worse
         c = loaded(c, result)  # one at a time: released after its comparison
         diff, se = paired_difference(c, best, noise)
-        if diff <= Z_STRUCTURE * se or equivalent(c, best, noise):
-            tied.append((Candidate(c.fit, c.error), diff, se))
-    chosen, diff, se = min(tied, key=lambda t: (*preference(t[0].fit), t[0].error))
+        if diff <= Z_STRUCTURE * se:
+            tied.append((Candidate(c.fit, c.error), f"difference {diff:.3g} +- {se:.2g}, "
+                         f"within {Z_STRUCTURE:g} standard errors"))
+        elif equivalent(c, best, noise):
+            tied.append((Candidate(c.fit, c.error), "their held-out predictions agree "
+                         f"within {EQUIVALENT:g} of the noise"))
+    chosen, margin = min(tied, key=lambda t: (*preference(t[0].fit), t[0].error))
     name = CRITERION_NAMES[crit]
     if chosen.fit is not best.fit or lowest.fit is chosen.fit:
         return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
-                               len(cands), f"difference {diff:.3g} +- {se:.2g}, within "
-                               f"{Z_STRUCTURE:g} standard errors")
+                               len(cands), margin)
     diff, se = paired_difference(loaded(chosen, result), loaded(lowest, result), noise)
-    reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method} read "
-              f"{lowest.error:.4g} off the response of the same structure, within the "
-              f"uncertainty (difference {diff:.3g} +- {se:.2g}), and the refinement is "
-              "fitted to all the identification data, with intervals")
+    reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method}, a "
+              f"reading of a {lowest.fit.model.structure.replace('_', ' ')} model, scored "
+              f"{lowest.error:.4g}, within the uncertainty (difference {diff:.3g} +- "
+              f"{se:.2g}), and its structure is represented by its refinement, fitted to "
+              "all the identification data, with intervals")
     return Recommendation(chosen.fit.method, chosen.fit.event, reason,
                           events=tuple(chosen.fit.events))
 
@@ -433,9 +438,22 @@ def _recommendation(chosen: Fit, best: Fit, name: str, err: float, best_err: flo
         return Recommendation(chosen.method, chosen.event, f"{note}lowest {name} ({err:.4g}) "
                               f"of {n} models ({where})", events=tuple(chosen.events))
     reason = (f"{note}{name} {err:.4g}, as good as the lowest ({best.method}: {best_err:.4g}; "
-              f"{margin}), and a simpler structure ({chosen.model.structure}, "
-              f"{complexity(chosen)} parameters against {complexity(best)}) ({where})")
+              f"{margin}), and {why_preferred(chosen, best)} ({where})")
     return Recommendation(chosen.method, chosen.event, reason, events=tuple(chosen.events))
+
+
+def why_preferred(chosen: Fit, best: Fit) -> str:
+    """The first of :func:`preference`'s reasons that sets ``chosen`` before ``best``."""
+    a, b = preference(chosen), preference(best)
+    if a[0] != b[0]:
+        return f"a better verdict ({chosen.verdict} against {best.verdict})"
+    if a[1] != b[1]:
+        return "parameters the data determine (the lowest has one they do not)"
+    if a[2] != b[2]:
+        return ("a refinement, fitted to all the identification data, with intervals (the "
+                "lowest is a graphical reading)")
+    return (f"a simpler structure ({chosen.model.structure}, {complexity(chosen)} parameters "
+            f"against {complexity(best)})")
 
 
 def _where(fit: Fit) -> str:

@@ -24,13 +24,14 @@ from dataclasses import replace
 import numpy as np
 
 from ..events import Event
-from ..fit import Fit, Flag
-from ..models import PARAMETERS, ProcessModel
+from ..fit import VERDICTS, Fit, Flag
+from ..models import PARAMETERS
 from ..record import Record, in_time_unit
 from ..refine import baseline_drift
 from ..results import RecordResult
 from .closed_loop import closed_loop_flag
 from .consistency import gain_flags
+from .determinacy import response_band, response_change
 
 #: Every flag code, with what it means (the report's legend and the docs read this).
 FLAGS: dict[str, str] = {
@@ -60,9 +61,11 @@ FLAGS: dict[str, str] = {
                                "no window shows a ramp as long as they show the settling",
     "starts_mid_transient": "the output is moving at the start while the input is constant: "
                             "a step just before the first row (declare initial_input)",
+    "check_failed": "a check could not be made on this model (a numerical failure): the "
+                    "verdict lacks it",
 }
 
-SEVERITY_ORDER = ("ok", "warning", "unreliable")
+SEVERITY_ORDER = VERDICTS  # a flag's severity forces at least that verdict
 
 #: Validation NRMSE fit below this (percent) is a poor fit (half the variation unexplained).
 POOR_FIT_PERCENT = 50.0
@@ -147,6 +150,9 @@ def record_verdict(res: RecordResult) -> str:
 #: (a line's standard error from its residuals would count the transient as noise).
 START_DRIFT = 0.1
 START_SIGMAS = 10.0
+#: A baseline whose scatter about its straight line is within this many noise sigmas is a
+#: steady ramp (an integrating process off its balance point), not a transient.
+STEADY_RAMP_SCATTER = 3.0
 
 
 def _starts_mid_transient(result: RecordResult) -> Flag | None:
@@ -158,10 +164,12 @@ def _starts_mid_transient(result: RecordResult) -> Flag | None:
         return None
     first = events[0]
     t, y = rec.t[: first.i_start], rec.y[: first.i_start]
-    drift = baseline_drift(t, y, first.noise)[0]
+    drift, _, scatter = baseline_drift(t, y, first.noise)
     largest = max(abs(e.y_ss - e.y0) for e in events)
     if drift <= max(START_SIGMAS * first.noise, START_DRIFT * largest):
         return None
+    if scatter <= STEADY_RAMP_SCATTER * max(first.noise, 1e-300):
+        return None  # a straight line: a steady ramp (an integrator off its balance), no transient
     u0 = float(rec.u[0])
     return Flag("starts_mid_transient", f"The record starts with the output moving (by "
                 f"{drift:.3g}{_unit_of_output(rec)} over the {_t(float(t[-1] - t[0]), rec)} "
@@ -196,11 +204,23 @@ def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
     ev = result.events[fit.event]
     checks = (_unsettled, _baseline, _below_sample_time, _delay_clipped, _fit_quality,
               _gain_sign, _wide_ci, _overshoot_in_noise, _undershoot_unmodelled)
-    out = [f for check in checks if (f := check(fit, ev, rec)) is not None]
     floor = fit_floor(fit, result)
-    extra = (_misfit(fit, ev, rec, floor), _validation_misfit(fit, result, floor),
-             _integrating_evidence(fit, result))
-    return out + [f for f in extra if f is not None]
+    flags = [_checked(check, fit, ev, rec) for check in checks]
+    flags += [_checked(_misfit, fit, ev, rec, floor),
+              _checked(_validation_misfit, fit, result, floor),
+              _checked(_integrating_evidence, fit, result)]
+    return [f for f in flags if f is not None]
+
+
+def _checked(check, fit: Fit, *args) -> Flag | None:
+    """``check(fit, *args)``; a check that fails (a numerical corner no test met) is a
+    ``check_failed`` warning, never the end of the record's analysis."""
+    try:
+        return check(fit, *args)
+    except Exception as exc:  # one check must not lose the record's other fits
+        return Flag("check_failed", f"The check {check.__name__.strip('_')} could not be "
+                    f"made ({type(exc).__name__}: {exc}); the verdict lacks it.",
+                    {"check": check.__name__.strip("_")})
 
 
 def settling_evidence(events: list[Event]) -> tuple[float, float]:
@@ -336,7 +356,7 @@ def _baseline(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     dy = ev.y_ss - ev.y0
     if t.size < 10 or dy == 0:
         return None
-    drift, se = baseline_drift(t, y, ev.noise)  # its error bar knows the noise's colour
+    drift, se, _ = baseline_drift(t, y, ev.noise)  # its error bar knows the noise's colour
     if drift <= max(BASELINE_SIGMAS * se, BASELINE_DRIFT * abs(dy)):
         return None
     return Flag("baseline_not_steady", f"The output drifts by {drift:.3g}"
@@ -442,9 +462,10 @@ def _gain_sign(fit: Fit, ev: Event, rec: Record) -> Flag | None:
 
 def _wide_ci(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     """A parameter whose 95 % half-width is beyond :data:`WIDE_CI` of its value: a warning
-    when it matters (moving it to an end of its interval changes the step response over
-    the window by more than :data:`MATERIAL`, :func:`response_change`), else information
-    (the data determine the response, not that parameter)."""
+    when it matters (the step response's 95 % band over the window is wider than
+    :data:`MATERIAL`: :func:`response_band` from a refinement's covariance, else
+    :func:`response_change` for a reading; the gain, or an interval without ends, always
+    matters), else information (the data determine the response, not that parameter)."""
     wide = {}
     for k, (lo, hi) in fit.ci95.items():
         v = float(fit.model.params.get(k, math.nan))
@@ -480,72 +501,6 @@ def _wide_ci(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     return Flag("wide_ci", f"The 95 % interval of {k} is ±{size}: the data do not determine "
                 "it" + (f", and {over} the step response moves by ±{change[k]:.0%}."
                         if math.isfinite(change[k]) else "."), values)
-
-
-#: Parameter sets drawn from a refinement's covariance for its response band.
-BAND_DRAWS = 200
-
-
-def response_band(fit: Fit, horizon: float) -> float | None:
-    """The 95 % band of the model's step response over ``[0, horizon]`` that the
-    refinement's parameter covariance gives (:class:`pipeline.fit.ParameterCovariance`,
-    :data:`BAND_DRAWS` draws, each clipped to the structure's bounds): its largest
-    half-width relative to the response's largest magnitude. Correlated parameters (a
-    zero and a lag that trade against each other) leave the response determined where
-    each alone is not. None without a covariance (a graphical reading)."""
-    cov = fit.refinement.covariance if fit.is_refined else None
-    if cov is None:
-        return None
-    model = fit.model
-    t = np.linspace(0.0, max(horizon, 1e-12), 101)
-    s0 = model.unit_step(t)
-    scale = float(np.max(np.abs(s0)))
-    if scale == 0:
-        return math.inf
-    bounds = model.spec.bounds
-    curves = []
-    with np.errstate(all="ignore"):
-        for draw in cov.draws(BAND_DRAWS):
-            p = {**model.params, **{k: min(max(v, bounds.get(k, (-math.inf, math.inf))[0]),
-                                           bounds.get(k, (-math.inf, math.inf))[1])
-                                    for k, v in draw.items()}}
-            try:
-                curves.append(ProcessModel(model.structure, p).unit_step(t))
-            except (ValueError, ZeroDivisionError, FloatingPointError, OverflowError):
-                return math.inf
-        lo, hi = np.nanquantile(np.array(curves), [0.025, 0.975], axis=0)
-    half = float(np.max((hi - lo) / 2.0)) / scale
-    return half if math.isfinite(half) else math.inf
-
-
-def response_change(fit: Fit, name: str, horizon: float) -> float:
-    """The largest change of the model's step response over ``[0, horizon]`` (relative to
-    the response's largest magnitude) when ``name`` moves to either end of its 95 %
-    interval, the other parameters held (inf for an interval without ends, or an end
-    outside the structure's domain)."""
-    model = fit.model
-    lo, hi = fit.ci95[name]
-    t = np.linspace(0.0, max(horizon, 1e-12), 201)
-    s0 = model.unit_step(t)
-    scale = float(np.max(np.abs(s0)))
-    if scale == 0 or lo is None or hi is None:
-        return math.inf
-    b_lo, b_hi = model.spec.bounds.get(name, (-math.inf, math.inf))
-    worst = 0.0
-    for end in (float(lo), float(hi)):
-        end = min(max(end, b_lo), b_hi)
-        if not math.isfinite(end) or abs(end) > 1e100:
-            return math.inf
-        try:
-            with np.errstate(all="ignore"):  # a lag at its bound 0: a jump, not a warning
-                s = ProcessModel(model.structure, {**model.params, name: end}).unit_step(t)
-                d = float(np.max(np.abs(s - s0))) / scale
-        except (ValueError, ZeroDivisionError, FloatingPointError, OverflowError):
-            return math.inf
-        if not math.isfinite(d):
-            return math.inf
-        worst = max(worst, d)
-    return worst
 
 
 def _overshoot_in_noise(fit: Fit, ev: Event, rec: Record) -> Flag | None:

@@ -139,7 +139,7 @@ def first_order_impulse(ev: EventData, level: float = LEVEL_DECAY) -> MethodResu
        maximum (not before the pulse end), its value taken on the decay curve (a one-sided
        quadratic fit of the raw samples over the top 20 % of the decay): any start point on
        the exponential gives the same ``T``, so a cusp blurred by smoothing does not bias
-       it. The 36.8 % time is read with :func:`~pipeline.methods.base.crossing_time`.
+       it. The 36.8 % time is read with :func:`~pipeline.signal.crossing_time`.
        ``y_max`` (for ``K_peak``) is that decay traced back, ``e^{+dt/T}``, to the cusp:
        the pulse end plus the dead time.
     2. Gains, all divided by the measured pulse area ``A`` (ERRATA [S1] 5), all reported:

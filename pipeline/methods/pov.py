@@ -46,7 +46,7 @@ def second_order_pov(ev: EventData, band: float = BAND,
        the start of the response (``t0`` plus the dead time). Read from the decaying
        extrema, which of a second-order step response lie exactly half a period apart:
        the last extremum outside the band is found, and ``t_s`` is where the response
-       crosses the band edge after it (:func:`~pipeline.methods.base.crossing_time`).
+       crosses the band edge after it (:func:`~pipeline.signal.crossing_time`).
        Reading extrema, not the last noisy sample outside the band, keeps it robust.
     4. ``t_s = 5 tau``, ``tau = 1/(zeta wn)``  ->  ``wn = 5/(zeta t_s)``.
 
@@ -151,7 +151,7 @@ def local_crossing(resp: Response, level: float, *, start: int, falling: bool, h
                    name: str = "") -> float:
     """First crossing of ``level`` at or after ``start``, for a slowly crossing signal.
 
-    :func:`~pipeline.methods.base.crossing_time` refines over ``+-0.08/slope``, which on a
+    :func:`~pipeline.signal.crossing_time` refines over ``+-0.08/slope``, which on a
     small oscillation (slope ~ amplitude x frequency) spans most of a half period. Here the
     preliminary crossing (smoothed signal, linear interpolation) is refined by a local
     cubic least-squares fit of the raw samples over ``+-half`` (a fraction of the half

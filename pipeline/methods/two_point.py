@@ -35,7 +35,7 @@ def first_order_two_point(ev: EventData, levels: tuple[float, float] = LEVELS
     [S0] 5) the formula holds for any ``y0``, step amplitude, ``t0`` and dead time. The
     read points are the times ``t1``, ``t2`` when the fractional response
     ``h = (y - y0)/(y_ss - y0)`` reaches ``levels = (h1, h2)`` (default 30 % and 80 %),
-    read with :func:`~pipeline.methods.base.crossing_time` (noise-robust):
+    read with :func:`~pipeline.signal.crossing_time` (noise-robust):
 
         T = (t2 - t1) / ln((1 - h1) / (1 - h2)),
         K = (y_ss - y0) / (u_ss - u0)                      (seed 000 "Notes", seed 001),

@@ -43,28 +43,30 @@ from .search import candidate_starts
 DRIFT_FRACTION = 0.01
 
 
-def baseline_drift(t: np.ndarray, y: np.ndarray, noise: float) -> tuple[float, float]:
-    """``(drift, standard error)`` of the output over the baseline ``t, y``: the
-    straight-line change over it and its standard error, from the scatter about the line
-    (at least ``noise``) and its colour (slow noise wanders like a drift: a white-noise
-    error bar would call it one; :func:`pipeline.uncertainty.variance_factor`). (0, 0)
-    with fewer than four samples."""
+def baseline_drift(t: np.ndarray, y: np.ndarray, noise: float
+                   ) -> tuple[float, float, float]:
+    """``(drift, standard error, scatter)`` of the output over the baseline ``t, y``: the
+    straight-line change over it, its standard error, from the scatter about the line (at
+    least ``noise``) and its colour (slow noise wanders like a drift: a white-noise error
+    bar would call it one; :func:`pipeline.uncertainty.variance_factor`), and that
+    scatter (a curve, not a line, when it is far above the noise). Zeros with fewer than
+    four samples."""
     if y.size < 4:
-        return 0.0, 0.0
+        return 0.0, 0.0, 0.0
     tc = t - t[0]
     slope, icpt = np.polyfit(tc, y, 1)
     resid = y - (icpt + slope * tc)
     scatter = max(float(np.std(resid, ddof=2)), noise)
     se = scatter * math.sqrt(variance_factor(resid) / max(float(np.sum((tc - tc.mean())**2)),
                                                           1e-300))
-    return abs(float(slope) * float(tc[-1])), se * float(tc[-1])
+    return abs(float(slope) * float(tc[-1])), se * float(tc[-1]), scatter
 
 
 def baseline_moving(t: np.ndarray, y: np.ndarray, noise: float, dy: float) -> bool:
     """Whether the output drifts over the baseline ``t, y``: its drift
     (:func:`baseline_drift`) exceeds three standard errors and ``DRIFT_FRACTION`` of
     ``dy``."""
-    drift, se = baseline_drift(t, y, noise)
+    drift, se, _ = baseline_drift(t, y, noise)
     return drift > max(3 * se, DRIFT_FRACTION * abs(dy))
 
 

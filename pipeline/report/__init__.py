@@ -11,7 +11,8 @@ _EXPORTS = {
     "Extras": "build", "write_run": "build",
     "baseline_reference": "history_plots", "history_figures": "history_plots",
     "write_junit": "junit", "check_target": "outdir", "gate_lines": "regressions",
-    "fmt": "tables", "ranking_table": "tables", "recommended_box": "tables",
+    "fmt": "tables", "PARAMETERS_COLUMN": "tables",
+    "ranking_table": "tables", "recommended_box": "tables",
     "response_text": "tables",
 }
 

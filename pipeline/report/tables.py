@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 
 from ..fit import Fit
-from ..grading import CRITERION_NAMES, criterion, ranked, record_verdict
+from ..grading import CRITERION_COLUMNS, CRITERION_NAMES, criterion, ranked, record_verdict
 from ..methods import REGISTRY
 from ..models import PARAMETERS, STRUCTURES, ProcessModel
 from ..record import Record, in_time_unit
@@ -221,7 +221,7 @@ def ranking_table(res: RecordResult, event: int) -> Table:
     recommended fit's row is marked (it need not be the first: a simpler structure within
     the uncertainty wins)."""
     crit = criterion(res)
-    name = CRITERION_NAMES[crit].replace(" on the identification event", "")
+    name = CRITERION_COLUMNS[crit]
     fits, chosen = ranked(res, event), res.recommended
     t = Table(["rank", "method", "verdict", PARAMETERS_COLUMN, "transfer function", name,
                "ISE (ident.)", "fit % (valid.)", "reference"],
@@ -248,7 +248,7 @@ def ident_summary_table(res: RecordResult, events: list[int]) -> Table:
     (a long record's compact view of the events beyond the detailed ones)."""
     crit = criterion(res)
     t = Table(["event", "kind", "first ranked", "verdict", "parameters",
-               CRITERION_NAMES[crit].replace(" on the identification event", ""), "ok fits"])
+               CRITERION_COLUMNS[crit], "ok fits"])
     for i in events:
         fits = ranked(res, i)
         kind = res.events[i].kind if i < len(res.events) else "-"

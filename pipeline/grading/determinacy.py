@@ -1,0 +1,91 @@
+"""How well the data determine a model's response, beyond each parameter's own interval.
+
+A parameter may be undetermined (a wide 95 % interval) while the step response is not: a
+zero and a lag that trade against each other, a lag far below the response's time scale.
+What matters for the model's use is the response:
+
+* :func:`response_band` - the 95 % band of the step response that a refinement's
+  parameter covariance gives (:class:`pipeline.fit.ParameterCovariance`: correlations
+  included), from parameter sets drawn from it;
+* :func:`response_change` - for a reading without a covariance: the step response's
+  largest change when one parameter moves to an end of its interval, the others held.
+
+Both are relative to the response's largest magnitude over the window; grading's
+``wide_ci`` compares them with :data:`pipeline.grading.verdicts.MATERIAL`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..fit import Fit
+from ..models import ProcessModel
+
+#: Parameter sets drawn from a refinement's covariance for its response band.
+BAND_DRAWS = 200
+
+
+def response_band(fit: Fit, horizon: float) -> float | None:
+    """The 95 % band of the model's step response over ``[0, horizon]`` that the
+    refinement's parameter covariance gives (:class:`pipeline.fit.ParameterCovariance`,
+    :data:`BAND_DRAWS` draws, each clipped to the structure's bounds): its largest
+    half-width relative to the response's largest magnitude. Correlated parameters (a
+    zero and a lag that trade against each other) leave the response determined where
+    each alone is not. None without a covariance (a graphical reading)."""
+    cov = fit.refinement.covariance if fit.is_refined else None
+    if cov is None:
+        return None
+    if not np.all(np.isfinite(cov.matrix)) or not np.all(np.isfinite(cov.z)):
+        return math.inf  # no finite covariance: nothing is determined
+    model = fit.model
+    t = np.linspace(0.0, max(horizon, 1e-12), 101)
+    s0 = model.unit_step(t)
+    scale = float(np.max(np.abs(s0)))
+    if scale == 0:
+        return math.inf
+    bounds = model.spec.bounds
+    curves = []
+    with np.errstate(all="ignore"):
+        for draw in cov.draws(BAND_DRAWS):
+            p = {**model.params, **{k: min(max(v, bounds.get(k, (-math.inf, math.inf))[0]),
+                                           bounds.get(k, (-math.inf, math.inf))[1])
+                                    for k, v in draw.items()}}
+            try:
+                curves.append(ProcessModel(model.structure, p).unit_step(t))
+            except (ValueError, ZeroDivisionError, FloatingPointError, OverflowError):
+                return math.inf
+        lo, hi = np.nanquantile(np.array(curves), [0.025, 0.975], axis=0)
+    half = float(np.max((hi - lo) / 2.0)) / scale
+    return half if math.isfinite(half) else math.inf
+
+
+def response_change(fit: Fit, name: str, horizon: float) -> float:
+    """The largest change of the model's step response over ``[0, horizon]`` (relative to
+    the response's largest magnitude) when ``name`` moves to either end of its 95 %
+    interval, the other parameters held (inf for an interval without ends, or an end
+    outside the structure's domain)."""
+    model = fit.model
+    lo, hi = fit.ci95[name]
+    t = np.linspace(0.0, max(horizon, 1e-12), 201)
+    s0 = model.unit_step(t)
+    scale = float(np.max(np.abs(s0)))
+    if scale == 0 or lo is None or hi is None:
+        return math.inf
+    b_lo, b_hi = model.spec.bounds.get(name, (-math.inf, math.inf))
+    worst = 0.0
+    for end in (float(lo), float(hi)):
+        end = min(max(end, b_lo), b_hi)
+        if not math.isfinite(end) or abs(end) > 1e100:
+            return math.inf
+        try:
+            with np.errstate(all="ignore"):  # a lag at its bound 0: a jump, not a warning
+                s = ProcessModel(model.structure, {**model.params, name: end}).unit_step(t)
+                d = float(np.max(np.abs(s - s0))) / scale
+        except (ValueError, ZeroDivisionError, FloatingPointError, OverflowError):
+            return math.inf
+        if not math.isfinite(d):
+            return math.inf
+        worst = max(worst, d)
+    return worst
