@@ -62,9 +62,10 @@ def main() -> None:
         for events in ((0,), "all"):
             res = analyse(record, AnalysisOptions(events=events))
             fit = res.recommended
+            label = "all" if events == "all" else "0"
             if fit is None:
                 flags = ", ".join(f.code for f in res.flags) or res.error or "-"
-                print(f"| {name} | {events} | none | - | - | {flags} | - | - |")
+                print(f"| {name} | {label} | none | - | - | {flags} | - | - |")
                 seen.append(None)
                 continue
             flags = ", ".join(f"{f.code}{' (info)' if f.severity == 'info' else ''}"
@@ -72,7 +73,7 @@ def main() -> None:
             m = fit.metrics
             held = m.get("mse_validation" if res.validation_events else
                          "mse_cross_validation", float("nan"))
-            print(f"| {name} | {'0' if events != 'all' else 'all'} | {fit.method} | "
+            print(f"| {name} | {label} | {fit.method} | "
                   f"`{fit.model.text(3)}` | {fit.verdict} | {flags} | "
                   f"{m.get('fit_percent', float('nan')):.1f} | {held:.4g} |")
             seen.append((fit.method, fit.event, tuple(fit.events), fit.verdict))
