@@ -24,7 +24,10 @@ LEVELS = [3.0, 1.5, 2.5, 1.0, 2.0, 3.5, 1.2, 2.8, 1.8, 3.2, 1.4, 2.6]
 STEP = 30.0  # seconds between the steps
 
 
-def _stairs(model, seed, noise=0.03, ar=0.0, start=0.0):
+NOISE = 0.03  # the noise's standard deviation
+
+
+def _stairs(model, seed, noise=NOISE, ar=0.0, start=0.0):
     """Twelve steps of ``model`` from u = 2 (``start`` < 0: the first step before the
     record begins, so it opens unsettled), noise white or AR(1) with pole ``ar``."""
     t = np.arange(start, len(LEVELS) * STEP + 20.0, 0.25)
@@ -44,13 +47,19 @@ def _fold_masks(t):
     return [~np.isin(window, np.arange(k, len(LEVELS), 10)) for k in range(10)]
 
 
-def _cost(t, u, y, structure, mask, params, state):
-    """The fold's criterion (half the sum of squared rows) at ``params``, gain and offset
-    solved (the linear parameters of the separable problem)."""
+def _fitted(t, u, y, structure, mask, params, state):
+    """The fold's criterion rows and the model's rows at ``params``, gain and offset solved
+    (the linear parameters of the separable problem)."""
     prob = Problem.of(t, u, y, structure, u_ref=2.0, mask=mask, initial_state=state,
                       free_lags=3, max_rows=600)
     a = prob.design_rows(params)
-    r = prob.y - a @ np.linalg.lstsq(a, prob.y, rcond=None)[0]
+    return prob.y, a @ np.linalg.lstsq(a, prob.y, rcond=None)[0]
+
+
+def _cost(t, u, y, structure, mask, params, state):
+    """The fold's criterion (half the sum of squared rows) at ``params``."""
+    rows, model = _fitted(t, u, y, structure, mask, params, state)
+    r = rows - model
     return 0.5 * float(r @ r)
 
 
@@ -97,8 +106,16 @@ def test_steps_reach_the_exact_refits_optimum(case, seed):
         c_step = _cost(t, u, y, structure, mask, params, state)
         c_exact = _cost(t, u, y, structure, mask, exact.model.params, state)
         assert c_step <= c_exact * (1 + 1e-5)
-        for n in params:
-            assert abs(params[n] - exact.model.params[n]) <= 0.5 * exact.std[n], n
+        off = [n for n in params if abs(params[n] - exact.model.params[n]) > 0.5 * exact.std[n]]
+        if off:
+            # a direction flatter than the refit's standard errors say (the lead-lag's dead
+            # time within a sample trades with its zero: Tz - delay is what the data fix;
+            # seen on one BLAS, 2.8 standard errors apart at a cost 1e-7 relative higher):
+            # the same optimum only if the two models' rows agree within 2 % of the noise
+            assert structure == "lead_lag" and set(off) <= {"Tz", "delay"}, off
+            _, m_step = _fitted(t, u, y, structure, mask, params, state)
+            _, m_exact = _fitted(t, u, y, structure, mask, exact.model.params, state)
+            assert np.sqrt(np.mean((m_step - m_exact) ** 2)) <= 0.02 * NOISE, off
 
 
 def test_an_integrating_models_balance_point_comes_with_its_fold():
