@@ -20,6 +20,7 @@ disagrees, and the record gets its recommended model (:func:`pipeline.grading.re
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -33,6 +34,7 @@ from .record import Record
 from .refine import RefineOptions, event_states, held_out_events, span_fit
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
+from .tuning import RecordTuning, TuningOptions, model_trust, tune
 from .validate import heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
@@ -48,6 +50,7 @@ class AnalysisOptions:
     ``refine``: options of the least-squares refinements (starts, bootstrap).
     ``consistency``: identify every step on its own and compare them
     (:mod:`pipeline.grading.consistency`); None: when there are three steps or more.
+    ``tuning``: the controller tuned from the recommended model (:func:`tuned`).
     """
 
     segmentation: SegmentOptions = field(default_factory=SegmentOptions)
@@ -55,6 +58,8 @@ class AnalysisOptions:
     methods: tuple[str, ...] | str = "all"
     refine: RefineOptions = field(default_factory=RefineOptions)
     consistency: bool | None = None  # each step on its own (None: with 3 steps or more)
+    #: how to tune a controller from the recommended model (None: no tuning)
+    tuning: TuningOptions | None = field(default_factory=TuningOptions)
 
 
 def analyse(record: Record, options: AnalysisOptions | None = None, *,
@@ -100,7 +105,48 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
                         recommendation.events) if recommendation else None
     if chosen is not None and chosen.verdict == "unreliable":  # never the answer
         return replace(graded, flags=graded.flags + (no_usable_model(graded, chosen),))
-    return replace(graded, recommendation=recommendation)
+    final = replace(graded, recommendation=recommendation)
+    if opt.tuning is None:
+        return final
+    return replace(final, tuning=tuned(final, opt.tuning))
+
+
+def tuned(result: RecordResult, options: TuningOptions) -> RecordTuning | None:
+    """The controller tuned from ``result``'s recommended model (pure; None without one).
+
+    The loop is simulated at the identification event's operating point (its ``u0``): a
+    setpoint step of half the output change the test's input step gave (``K du/2``; for an
+    integrating model half the output change over the event), which settles with the
+    input mid-range, then a load step of a quarter of the test's input step at the plant
+    input, with the actuator limited to the input range the log saw (or
+    ``options.u_limits``). A model whose verdict is unreliable or that is
+    flagged closed-loop gives no "robust" tuning."""
+    fit, rec = result.recommended, result.record
+    if fit is None or fit.model is None or rec is None:
+        return None
+    model = fit.model
+    ev = result.events[fit.event]
+    du = ev.u_ss - ev.u0 if ev.kind == "step" else float(np.ptp(rec.u)) / 2.0
+    if model.integrating:
+        window = rec.y[ev.i_start:ev.i_end]
+        r_step = float(window[-1] - window[0]) / 2.0 if window.size > 1 else model.K
+    else:
+        r_step = model.K * du / 2.0
+    lo, hi = options.u_limits or (float(np.min(rec.u)), float(np.max(rec.u)))
+    limits = (min(lo - ev.u0, 0.0), max(hi - ev.u0, 0.0))
+    trusted, why = model_trust(fit.verdict, (f.code for f in (*fit.flags, *result.flags)),
+                               (f.code for f in fit.flags if f.severity == "warning"))
+    base = RecordTuning(method=fit.method, event=fit.event, events=tuple(fit.events),
+                        rule=options.rule, units=dict(rec.units), r_step=r_step,
+                        d_step=du / 4.0, u_limits=limits)
+    try:
+        t = tune(model, options, ci95=fit.ci95, covariance=(
+            fit.refinement.covariance if fit.refinement is not None else None),
+            trusted=trusted, why_not=why, r_step=r_step or 1.0,
+            d_step=du / 4.0 or None, u_limits=limits)
+    except ValueError as exc:
+        return replace(base, reason=str(exc))
+    return replace(base, tuning=t)
 
 
 def no_event_message(record: Record) -> str:
@@ -132,6 +178,7 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
                            f"{ev.i_end - ev.i_start} samples after t0, at least "
                            f"{MIN_WINDOW_SAMPLES} are needed"))
             continue
+        t0 = time.perf_counter()
         if mid in REGISTRY and REGISTRY[mid].kind == "refinement":
             fit = event_fit(record, events, i, mid, models=[f.model for f in out if f.ok],
                             states=states, options=opt.refine)
@@ -140,7 +187,7 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
         if fit.ok:
             fit = replace(fit, metrics=score(fit.model, record, events, ev, validation,
                                              fit.balance_point))
-        out.append(fit)
+        out.append(replace(fit, seconds=time.perf_counter() - t0))
     return out
 
 
@@ -153,6 +200,7 @@ def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
                if m in REGISTRY and REGISTRY[m].kind == "refinement"]
     models = [f.model for f in fits if f.ok and f.event == ident[0]]
     for mid in dict.fromkeys(methods):
+        t0 = time.perf_counter()
         fit = span_fit(record, events, ident, mid, REGISTRY[mid].structures[0],
                        models=models, states=states, cross_validation=opt.events == "all",
                        options=opt.refine)
@@ -160,7 +208,7 @@ def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
             metrics = score(fit.model, record, events, events[ident[0]], validation,
                             fit.balance_point)
             fit = replace(fit, metrics={**metrics, **fit.metrics})
-        out.append(fit)
+        out.append(replace(fit, seconds=time.perf_counter() - t0))
     return out
 
 

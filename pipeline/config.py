@@ -70,6 +70,58 @@ class ReportConfig(_Strict):
     plots: Literal["auto", "full", "summary", "none"] = "auto"
 
 
+class TuningConfig(_Strict):
+    """How to tune a controller from each record's recommended model (``pipeline.tuning``):
+    ``rule`` (simc, simc_improved, lambda, amigo), ``kind`` (auto, P, PI, PID), ``tau_c``
+    (seconds, ``tight`` = the dead time, ``smooth`` = three times it, or ``robust``: the
+    fastest whose worst-case Ms over the model's intervals is at most ``ms_target``),
+    the ``form`` and ``time_unit`` the settings are shown in, the instrument spans for a
+    gain in %/%, the actuator ``limits`` (input units; default: the range the log saw),
+    the controller's ``sample_time`` (s; 0: continuous), ``enabled: false`` to skip."""
+
+    enabled: bool = True
+    rule: Literal["simc", "simc_improved", "lambda", "amigo"] = "simc"
+    kind: Literal["auto", "P", "PI", "PID"] = "auto"
+    tau_c: float | Literal["tight", "smooth", "robust"] | None = None
+    ms_target: float = Field(1.7, gt=1.0, le=5.0)
+    form: Literal["ideal", "parallel", "series"] = "ideal"
+    time_unit: Literal["s", "min"] = "s"
+    input_span: float | None = Field(None, gt=0)
+    output_span: float | None = Field(None, gt=0)
+    limits: tuple[float, float] | None = None
+    sample_time: float = Field(0.0, ge=0)
+    simulate: bool = True
+
+    @field_validator("tau_c")
+    @classmethod
+    def _positive(cls, v):
+        if isinstance(v, int | float) and not isinstance(v, bool) and v <= 0:
+            raise ValueError("expected a positive number of seconds, or tight, smooth, "
+                             "robust")
+        return v
+
+    @field_validator("limits")
+    @classmethod
+    def _ordered(cls, v):
+        if v is not None and not v[0] < v[1]:
+            raise ValueError("expected [low, high] with low < high")
+        return v
+
+    def options(self):
+        """The :class:`pipeline.tuning.TuningOptions` of this section (None: disabled)."""
+        from .tuning import TuningOptions
+
+        if not self.enabled:
+            return None
+        robust = self.tau_c == "robust"
+        return TuningOptions(
+            rule=self.rule, kind=self.kind, tau_c=None if robust else self.tau_c,
+            ms_target=self.ms_target if robust else None, form=self.form,
+            time_unit=self.time_unit, input_span=self.input_span,
+            output_span=self.output_span, u_limits=self.limits, simulate=self.simulate,
+            sample_time=self.sample_time)
+
+
 def folder_name(label: str) -> str:
     """The folder a run's ``name`` gives under ``reports/`` when no ``output:`` is set.
 
@@ -100,6 +152,7 @@ class RunConfig(_Strict):
                           "three steps or more)")
     output: str | None = None
     report: ReportConfig = ReportConfig()
+    tuning: TuningConfig = TuningConfig()
     base_dir: str = Field(".", exclude=True)
     source: str = Field("<config>", exclude=True)
 

@@ -173,6 +173,9 @@ class Fit:
     flags: tuple[Flag, ...] = ()
     events: tuple[int, ...] = ()
     refinement: RefinementSummary | None = None
+    #: wall time of the method and its validation on this event, s (the JUnit testcase's
+    #: time; not in results.json, which stays the same from run to run)
+    seconds: float | None = field(default=None, compare=False)
 
     @property
     def ok(self) -> bool:

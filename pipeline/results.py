@@ -36,7 +36,9 @@ from .schema import (
     Role,
     StaticMapDoc,
     TransferFunctionDoc,
+    fit_label,
 )
+from .tuning import RecordTuning, tuning_doc
 from .version import __version__
 
 
@@ -112,6 +114,7 @@ class RecordResult:
     recommendation: Recommendation | None = None
     flags: tuple[Flag, ...] = ()  # findings about the whole log (grading)
     consistency: Consistency | None = None  # each step on its own (pipeline.grading)
+    tuning: RecordTuning | None = None  # the controller tuned from the recommended model
 
     @property
     def ok(self) -> bool:
@@ -153,6 +156,7 @@ class RecordResult:
             recommended=self._recommended_doc(),
             flags=[flag_doc(x) for x in self.flags],
             consistency=consistency_doc(self.consistency),
+            tuning=tuning_doc(self.tuning),
             errors=[self.error] if self.error else [],
         )
 
@@ -282,6 +286,13 @@ def _plain(obj):
 
 
 # -- the file ----------------------------------------------------------------------------
+
+def fit_times(records: list[RecordResult]) -> dict[tuple[str, int, str], float]:
+    """Each fit's measured wall time by ``(record, event, label)`` (the JUnit testcases'
+    times; results.json keeps none, so two runs of the same data write the same file)."""
+    return {(r.name, f.event, fit_label(f.method, f.event, list(f.events))): f.seconds
+            for r in records for f in r.fits if f.seconds is not None}
+
 
 def results_json(doc: ResultsDoc) -> str:
     """The results.json text of ``doc`` (strict JSON: NaN is null)."""

@@ -42,7 +42,7 @@ from .grading import record_verdict
 from .io import check_file, dataset, fetch, files_named, load_record
 from .log import logger
 from .record import Record
-from .results import RecordResult, RunResult, results_json
+from .results import RecordResult, RunResult, fit_times, results_json
 from .schema import ResultsDoc
 from .segmentation import SegmentOptions
 
@@ -85,6 +85,7 @@ def analysis_options(cfg: RunConfig) -> AnalysisOptions:
         methods=cfg.methods if cfg.methods == "all" else tuple(cfg.methods),
         refine=cfg.identification.refine_options(),
         consistency=cfg.consistency,
+        tuning=cfg.tuning.options(),
     )
 
 
@@ -251,7 +252,8 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
             append_history(history, doc, run_time)
         if junit is not None:
             stages.step("JUnit")
-            report.write_junit(junit, doc, comparison, time=time.perf_counter() - started)
+            report.write_junit(junit, doc, comparison, time=time.perf_counter() - started,
+                               times=fit_times(records))
 
     # nothing to draw: the sections are tables, built here; else the batch's pool draws
     stages.step("report sections", total=len(records))

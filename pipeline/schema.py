@@ -8,8 +8,9 @@ string keys of a dict.
 
 Versions: ``schema_version`` "3" is this layout: a flag's severity may be ``info`` (it
 does not change the verdict), and ``best`` is written as null (the recommended model is
-the one answer). Versions 2 and 1 (pipeline 0.1, no ``schema_version`` key) are read too:
-their objects are a subset of version 3.
+the one answer); a record may carry ``tuning`` (the controller tuned from the
+recommended model). Versions 2 and 1 (pipeline 0.1, no ``schema_version`` key) are read
+too: their objects are a subset of version 3.
 """
 
 from __future__ import annotations
@@ -207,6 +208,125 @@ class ConsistencyDoc(_Doc):
     static_map: StaticMapDoc | None = None
 
 
+class ControllerDoc(_Doc):
+    """Controller settings in the ideal (ISA) form, seconds: ``Kc`` signed (input unit per
+    output unit, the sign of the process gain), ``Ti`` null without integral action, ``Tf``
+    the derivative filter's time constant."""
+
+    kind: Literal["P", "PI", "PID"]
+    Kc: float
+    Ti: float | None = None
+    Td: float = 0.0
+    Tf: float = 0.0
+
+
+class AlternativeDoc(_Doc):
+    """Beside settings that are fragile or unstable over the interval: the same rule with
+    the fastest ``tau_c`` (s) whose worst-case Ms over the intervals is ``worst_ms``."""
+
+    tau_c: float
+    controller: ControllerDoc
+    worst_ms: float
+
+
+class MarginsDoc(_Doc):
+    """The loop's robustness with the exact dead time; null means infinite (no crossover)
+    or not defined."""
+
+    stable: bool
+    ms: float | None = None
+    mt: float | None = None
+    gain_margin: float | None = None
+    phase_margin: float | None = Field(None, description="degrees")
+    delay_margin: float | None = Field(None, description="seconds")
+    wc: float | None = Field(None, description="gain crossover, rad/s")
+    w180: float | None = Field(None, description="phase crossover, rad/s")
+
+
+class WorstCaseDoc(_Doc):
+    """The settings on every parameter set inside the model's 95 % intervals."""
+
+    ms: float | None = Field(None, description="null when some set is unstable")
+    stable_fraction: float
+    n_sets: int
+    params: dict[str, float] = Field(default_factory=dict)
+    n_corners: int = Field(0, description="how many of the sets are the box's corners")
+    unstable_corners: int = 0
+    unstable_draws: int = Field(0, description="unstable sets among the covariance draws")
+
+
+class StepMetricsDoc(_Doc):
+    iae: float
+    overshoot: float
+    peak_deviation: float
+    settling_time: float | None = None
+    u_peak: float
+    saturated: bool
+
+
+class LoopDoc(_Doc):
+    """The tuned loop simulated: a setpoint step, then a load step at the plant input."""
+
+    r_step: float
+    d_step: float
+    u_limits: tuple[float, float] | None = None
+    setpoint: StepMetricsDoc
+    load: StepMetricsDoc
+
+
+class ReducedDoc(_Doc):
+    """The model the rule read (Skogestad's half rule): its kind, gain, lags, dead time."""
+
+    kind: str
+    K: float
+    theta: float
+    tau1: float = 0.0
+    tau2: float = 0.0
+    zeta: float = 1.0
+    steps: list[str] = Field(default_factory=list)
+
+
+TuningVerdictName = Literal["robust", "fragile", "unstable_in_interval", "unchecked"]
+
+
+class TuningDoc(_Doc):
+    """The controller tuned from the recommended model (``status`` "not_applicable" with the
+    ``reason`` when the rule does not apply): the rule and what it read, the settings in
+    the ideal form (seconds) and in the requested ``form``/``time_unit`` (magnitudes; the
+    ``action`` carries the sign), the margins, the worst case over the intervals, the
+    verdict and the simulated loop."""
+
+    status: Literal["ok", "not_applicable"]
+    reason: str | None = None
+    method: str
+    event: int
+    events: list[int] = Field(default_factory=list)
+    rule: str
+    kind: Literal["P", "PI", "PID"] | None = None
+    tau_c: float | None = None
+    ms_target: float | None = None
+    reduced: ReducedDoc | None = None
+    controller: ControllerDoc | None = None
+    controller_ci95: dict[str, tuple[float, float]] = Field(
+        default_factory=dict, description="the ideal-form settings (Kc signed, seconds) the "
+        "rule gives on the parameter sets inside the model's 95 % intervals (box corners and "
+        "covariance draws), smallest to largest")
+    form: Literal["ideal", "parallel", "series"] = "ideal"
+    time_unit: Literal["s", "min"] = "s"
+    settings: dict[str, float | None] = Field(default_factory=dict)
+    action: Literal["reverse", "direct"] | None = None
+    gain_unit: str = ""
+    percent_gain: float | None = None
+    margins: MarginsDoc | None = None
+    worst_case: WorstCaseDoc | None = None
+    verdict: TuningVerdictName | None = None
+    reasons: list[str] = Field(default_factory=list)
+    alternative: AlternativeDoc | None = None
+    notes: list[str] = Field(default_factory=list)
+    response: LoopDoc | None = None
+    worst_response: LoopDoc | None = None
+
+
 class RecordDoc(_Doc):
     """One log: what was loaded, the events found, every fit, and the recommendation;
     ``flags`` are findings about the whole log (they are on every fit too)."""
@@ -227,6 +347,7 @@ class RecordDoc(_Doc):
     recommended: RecommendedDoc | None = None
     flags: list[FlagDoc] = Field(default_factory=list)
     consistency: ConsistencyDoc | None = None
+    tuning: TuningDoc | None = None
     errors: list[str] = Field(default_factory=list)
 
 

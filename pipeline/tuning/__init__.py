@@ -1,0 +1,42 @@
+"""Tuning: controller settings from the recommended model, checked over its uncertainty.
+
+- :mod:`.reduction` - the model as the first- or second-order (or integrating) model with
+  an effective dead time that a rule reads (Skogestad's half rule);
+- :mod:`.rules` - SIMC, improved SIMC, lambda/IMC and AMIGO (P, PI, PID);
+- :mod:`.controller` - the settings in the ideal, parallel and series forms;
+- :mod:`.plant` - a model's frequency response with its exact dead time (batches too);
+- :mod:`.margins` - Ms, gain, phase and delay margins, Nyquist stability, exact delay;
+- :mod:`.robust` - the worst case over the model's 95 % intervals;
+- :mod:`.loop` - the tuned loop simulated: setpoint and load steps, actuator limits,
+  back-calculation anti-windup;
+- :mod:`.tuner` - all of it for one model: :func:`tune` -> :class:`Tuning` with a verdict;
+- :mod:`.doc` - a record's tuning (:class:`RecordTuning`) as results.json carries it.
+"""
+
+from .controller import CONTROLLER_KINDS, Controller, ControllerKind
+from .doc import UNTRUSTED_FLAGS, RecordTuning, model_trust, tuning_doc
+from .loop import LoopResponse, Pid, StepMetrics, simulate_loop
+from .margins import Margins, loop_margins, sensitivity_peaks
+from .reduction import Reduced, reduce, reduce_lags
+from .robust import WorstCase, parameter_sets, worst_case
+from .rules import RULE_NAMES, TAU_C_FACTORS, KindChoice, RuleName, RuleSettings, tune_rule
+from .tuner import (
+    FRAGILE_MS,
+    MS_TARGET,
+    TUNING_VERDICTS,
+    ControllerForm,
+    TimeUnit,
+    Tuning,
+    TuningOptions,
+    TuningVerdict,
+    nominal_margins,
+    tune,
+)
+
+__all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_FACTORS",
+           "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm",
+           "ControllerKind", "KindChoice", "LoopResponse", "Margins", "Pid", "RecordTuning",
+           "Reduced", "RuleName", "RuleSettings", "StepMetrics", "TimeUnit", "Tuning",
+           "TuningOptions", "TuningVerdict", "WorstCase", "loop_margins", "model_trust",
+           "nominal_margins", "parameter_sets", "reduce", "reduce_lags", "sensitivity_peaks",
+           "simulate_loop", "tune", "tune_rule", "tuning_doc", "worst_case"]

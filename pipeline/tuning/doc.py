@@ -1,0 +1,142 @@
+"""A record's tuning as results.json carries it (:class:`pipeline.schema.TuningDoc`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..schema import (
+    AlternativeDoc,
+    ControllerDoc,
+    LoopDoc,
+    MarginsDoc,
+    ReducedDoc,
+    StepMetricsDoc,
+    TuningDoc,
+    WorstCaseDoc,
+)
+from .loop import LoopResponse, StepMetrics
+from .margins import Margins
+from .tuner import Tuning
+
+
+@dataclass(frozen=True)
+class RecordTuning:
+    """The controller tuned for a record: which fit it came from, the rule, and the
+    :class:`~pipeline.tuning.Tuning` (None with the ``reason`` when the rule does not
+    apply); ``units`` are the record's (input, output, time); ``r_step``/``d_step``/
+    ``u_limits`` the simulated steps and actuator range (deviations)."""
+
+    method: str
+    event: int
+    rule: str
+    events: tuple[int, ...] = ()
+    tuning: Tuning | None = None
+    reason: str | None = None
+    units: dict[str, str] = field(default_factory=dict)
+    r_step: float = 1.0
+    d_step: float | None = None
+    u_limits: tuple[float, float] | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.tuning is not None
+
+    @property
+    def gain_unit(self) -> str:
+        """The controller gain's unit: input unit per output unit."""
+        u, y = self.units.get("input", ""), self.units.get("output", "")
+        return f"{u}/{y}" if u or y else ""
+
+
+#: Flags under which a model's tuning is never called robust (the model may not be the
+#: open-loop plant).
+UNTRUSTED_FLAGS = ("closed_loop_suspected",)
+
+
+def model_trust(verdict: str, flag_codes, warned_codes) -> tuple[bool, str]:
+    """Whether a tuning from a model with this ``verdict`` and these flags may be called
+    robust, and what the verdict's reasons say: never for an unreliable model or one
+    flagged :data:`UNTRUSTED_FLAGS`; with a caveat for one whose flags ``warned_codes``
+    are warnings ("robust only as far as the model holds")."""
+    codes = set(flag_codes)
+    untrusted = [c for c in UNTRUSTED_FLAGS if c in codes]
+    if verdict == "unreliable":
+        return False, "the model's verdict is unreliable"
+    if untrusted:
+        return False, f"the model is flagged {untrusted[0]}"
+    warned = list(dict.fromkeys(warned_codes))
+    if warned:
+        return True, (f"the model itself has warnings ({', '.join(warned)}): robust only as "
+                      "far as the model holds")
+    return True, ""
+
+
+def _num(v: float) -> float | None:
+    return float(v) if v is not None and math.isfinite(v) else None
+
+
+def margins_doc(m: Margins) -> MarginsDoc:
+    return MarginsDoc(stable=bool(m.stable), ms=_num(m.ms), mt=_num(m.mt),
+                      gain_margin=_num(m.gain_margin), phase_margin=_num(m.phase_margin),
+                      delay_margin=_num(m.delay_margin), wc=_num(m.wc), w180=_num(m.w180))
+
+
+def _metrics_doc(m: StepMetrics) -> StepMetricsDoc:
+    return StepMetricsDoc(iae=float(m.iae), overshoot=float(m.overshoot),
+                          peak_deviation=float(m.peak_deviation),
+                          settling_time=_num(m.settling_time), u_peak=float(m.u_peak),
+                          saturated=bool(m.saturated))
+
+
+def _loop_doc(r: LoopResponse | None, rt: RecordTuning) -> LoopDoc | None:
+    if r is None:
+        return None
+    d = float(r.d[-1]) if len(r.d) else 0.0
+    return LoopDoc(r_step=float(r.r[-1]) if len(r.r) else rt.r_step, d_step=d,
+                   u_limits=rt.u_limits, setpoint=_metrics_doc(r.setpoint),
+                   load=_metrics_doc(r.load))
+
+
+def _controller_doc(c) -> ControllerDoc:
+    return ControllerDoc(kind=c.kind, Kc=c.Kc, Ti=_num(c.Ti), Td=c.Td, Tf=c.Tf)
+
+
+def _alternative_doc(t: Tuning) -> AlternativeDoc | None:
+    a = t.alternative
+    if a is None or a.tau_c is None or t.alternative_ms is None:
+        return None
+    return AlternativeDoc(tau_c=float(a.tau_c), controller=_controller_doc(a.controller),
+                          worst_ms=float(t.alternative_ms))
+
+
+def tuning_doc(rt: RecordTuning | None) -> TuningDoc | None:
+    """The results.json form of a record's tuning."""
+    if rt is None:
+        return None
+    base = {"method": rt.method, "event": rt.event, "events": list(rt.events),
+            "rule": rt.rule}
+    t = rt.tuning
+    if t is None:
+        return TuningDoc(status="not_applicable", reason=rt.reason, **base)
+    c, st = t.controller, t.settings
+    red = st.reduced
+    w = t.worst
+    return TuningDoc(
+        status="ok", **base, kind=c.kind, tau_c=_num(st.tau_c) if st.tau_c else None,
+        ms_target=t.options.ms_target,
+        reduced=ReducedDoc(kind=red.kind, K=red.K, theta=red.theta, tau1=red.tau1,
+                           tau2=red.tau2, zeta=red.zeta, steps=list(red.steps)),
+        controller=_controller_doc(c),
+        controller_ci95={k: (float(lo), float(hi)) for k, (lo, hi) in t.spread.items()},
+        form=t.options.form, time_unit=t.options.time_unit,
+        settings={k: _num(v) for k, v in (t.form() or {}).items()},
+        action=t.action, gain_unit=rt.gain_unit, percent_gain=t.percent_gain,
+        margins=margins_doc(t.margins),
+        worst_case=WorstCaseDoc(ms=_num(w.ms), stable_fraction=w.stable_fraction,
+                                n_sets=w.n_sets, params=dict(w.params),
+                                n_corners=w.n_corners, unstable_corners=w.unstable_corners,
+                                unstable_draws=w.unstable_draws) if w else None,
+        verdict=t.verdict, reasons=list(t.reasons), notes=list(t.notes),
+        alternative=_alternative_doc(t),
+        response=_loop_doc(t.response, rt), worst_response=_loop_doc(t.worst_response, rt))
