@@ -9,11 +9,22 @@ model, its verdict and flags, and how it scores on the data it did not see (vali
 fit %, held-out MSE); then whether the two modes give the same model and verdict.
 Nobody here wrote these logs, so there is no truth to score against: the table is what a
 user would see, and the note says which models are right.
+
+    python benchmarks/real_logs.py --tuning
+
+prints instead the controller tuned (SIMC, the defaults of ``pipeline run``) from each
+log's recommended model with event 0 identifying: the settings in the ideal form, the
+margins with the exact dead time, the worst case over the model's 95 % intervals, the
+verdict, and the time the tuning took against the time of the analysis without it
+(measured in the same run).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import platform
+import time
 from pathlib import Path
 
 from pipeline.analysis import AnalysisOptions, analyse
@@ -51,7 +62,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--datasets", type=Path,
                     default=Path(__file__).resolve().parents[2] / "shared" / "datasets")
+    ap.add_argument("--tuning", action="store_true", help="the tuned controllers instead")
     a = ap.parse_args()
+    if a.tuning:
+        tuning_table(a.datasets)
+        return
     print("| log | events | recommended | model | verdict | flags | validation fit % | "
           "held-out MSE |")
     print("|---|---|---|---|---|---|---:|---:|")
@@ -80,6 +95,43 @@ def main() -> None:
         same.append((name, seen[0] == seen[1]))
     print("\nthe same model and verdict with --events 0 and --events all:",
           ", ".join(f"{n}: {'yes' if s else 'no'}" for n, s in same))
+
+
+def _g(v: float | None, digits: int = 3) -> str:
+    return "-" if v is None or not math.isfinite(v) else f"{v:.{digits}g}"
+
+
+def tuning_table(datasets: Path) -> None:
+    """One Markdown row per log: the tuned controller of its recommended model."""
+    from pipeline.analysis import tuned
+    from pipeline.tuning import TuningOptions
+
+    print(f"machine: {platform.processor() or platform.machine()}, {platform.system()}, "
+          f"Python {platform.python_version()}\n")
+    print("| log | model | controller | Kc | Ti | Td | Ms | GM | PM | DM | worst Ms "
+          "(sets) | verdict | tuning / analysis time |")
+    print("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|")
+    for name, (path, data) in LOGS.items():
+        record = load(datasets / path, **data)
+        t0 = time.perf_counter()
+        res = analyse(record, AnalysisOptions(events=(0,), tuning=None))
+        t_analysis = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        rt = tuned(res, TuningOptions()) if res.recommended is not None else None
+        t_tuning = time.perf_counter() - t0
+        if rt is None or not rt.ok:
+            why = "no recommended model" if rt is None else rt.reason
+            print(f"| {name} | {res.recommended.method if res.recommended else '-'} | "
+                  f"not tuned: {why} | | | | | | | | | | |")
+            continue
+        t, c, m, w = rt.tuning, rt.tuning.controller, rt.tuning.margins, rt.tuning.worst
+        worst = f"{_g(w.ms)} ({w.n_sets})" if w is not None else "-"
+        print(f"| {name} | {res.recommended.method} | {c.kind} ({t.action}) | "
+              f"{_g(c.Kc, 4)} {rt.gain_unit} | {_g(c.Ti, 4)} | {_g(c.Td, 4)} | "
+              f"{_g(m.ms)} | {_g(m.gain_margin)} | {_g(m.phase_margin)} | "
+              f"{_g(m.delay_margin)} | {worst} | {t.verdict} | "
+              f"{t_tuning * 1e3:.0f} ms / {t_analysis * 1e3:.0f} ms "
+              f"({t_tuning / t_analysis:.2f}) |")
 
 
 if __name__ == "__main__":

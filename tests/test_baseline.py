@@ -42,6 +42,9 @@ METHODS = ("first_order", "first_order_two_point", "viteckova1", "viteckova2", "
 REFINED = tuple(m for m in __import__("pipeline.methods", fromlist=["REGISTRY"]).REGISTRY
                 if m.startswith("lsq_"))
 N_LOGS = 5
+#: these tests check the rules per method: every method gates (the default gates only
+#: the recommended model, tests/test_gate_scope.py)
+ALL = Tolerances(scope="all")
 
 
 # -- results built from real fits --------------------------------------------------------
@@ -102,10 +105,11 @@ def test_refinements_on_fresh_noise_are_not_regressions():
     base = results_doc(plan_logs(N_LOGS, seed=11), REFINED)
     for noise_seed in (1, 2):
         current = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=noise_seed), REFINED)
-        result = compare(current, base)
+        result = compare(current, base, ALL)
         assert result.ok, [f.message for f in result.regressions]
     drifted = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=5, gain_drift=0.10), REFINED)
-    k = {(f.record, f.method) for f in compare(drifted, base).regressions if f.parameter == "K"}
+    k = {(f.record, f.method) for f in compare(drifted, base, ALL).regressions
+         if f.parameter == "K"}
     assert {(f"log_{i:03d}", "lsq_first_order") for i in range(N_LOGS)} <= k
 
 
@@ -113,7 +117,7 @@ def test_refinements_on_fresh_noise_are_not_regressions():
 def test_unchanged_plant_fresh_noise_is_not_a_regression(baseline, noise_seed):
     current = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=noise_seed))
     assert all(f["status"] == "ok" for r in current["records"] for f in r["fits"])
-    result = compare(current, baseline)
+    result = compare(current, baseline, ALL)
     assert result.ok, [f.message for f in result.regressions]
     assert result.new == () and result.missing == ()
     # the fits did move: the gate is not comparing identical numbers
@@ -123,7 +127,7 @@ def test_unchanged_plant_fresh_noise_is_not_a_regression(baseline, noise_seed):
 
 def test_ten_percent_gain_drift_is_a_regression_naming_record_method_and_k(baseline):
     current = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=5, gain_drift=0.10))
-    result = compare(current, baseline)
+    result = compare(current, baseline, ALL)
     assert not result.ok
     k_findings = {(f.record, f.method): f for f in result.regressions if f.parameter == "K"}
     for i in range(N_LOGS):
@@ -145,10 +149,10 @@ def test_delay_with_zero_baseline_is_compared_with_the_time_scale():
     delays = [(_fit(base, p.name, m)["params"]["delay"], _fit(cur, p.name, m)["params"]["delay"])
               for p in plans for m in ("first_order", "sundaresan")]
     assert any(b == 0.0 and c != 0.0 for b, c in delays) or any(b != c for b, c in delays)
-    assert compare(cur, base).ok
+    assert compare(cur, base, ALL).ok
     # a real dead time appearing is flagged
     late = results_doc(plan_logs(3, seed=12, delay=1.5, noise_seed=4), ("first_order",))
-    result = compare(late, results_doc(plans, ("first_order",)))
+    result = compare(late, results_doc(plans, ("first_order",)), ALL)
     assert any(f.parameter == "delay" for f in result.regressions)
 
 
@@ -162,7 +166,7 @@ def test_ok_to_not_applicable_is_a_regression(baseline):
     rec = current["records"][1]
     rec["fits"] = [fit_doc(fit).model_dump(mode="json") if f["method"] == "first_order"
                    else f for f in rec["fits"]]
-    result = compare(current, baseline)
+    result = compare(current, baseline, ALL)
     (f,) = result.regressions
     assert (f.record, f.event, f.method, f.kind) == ("log_001", 0, "first_order", "status")
     assert (f.baseline_value, f.current_value) == ("ok", "not_applicable")
@@ -173,7 +177,7 @@ def test_new_method_and_new_record_are_new_not_failures(baseline):
     plans = plan_logs(N_LOGS + 1, seed=11, noise_seed=1)
     current = results_doc(plans[:N_LOGS], METHODS + ("strejc",))
     current["records"].append(record_result(plans[N_LOGS], ("first_order",)))
-    result = compare(current, baseline)
+    result = compare(current, baseline, ALL)
     assert result.ok, [f.message for f in result.regressions]
     new = {(f.record, f.event, f.method) for f in result.new}
     assert {(f"log_{i:03d}", 0, "strejc") for i in range(N_LOGS)} <= new
@@ -185,7 +189,8 @@ def test_mse_growth_is_a_regression(baseline):
     # the same plants logged with 8 times the noise: the validation MSE grows ~50-fold
     current = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=6, noise_rel=0.08),
                           ("first_order",))
-    result = compare(current, results_doc(plan_logs(N_LOGS, seed=11), ("first_order",)))
+    result = compare(current, results_doc(plan_logs(N_LOGS, seed=11), ("first_order",)),
+                     ALL)
     growth = [f for f in result.regressions if f.kind == "mse_growth"]
     assert {f.record for f in growth} == {f"log_{i:03d}" for i in range(N_LOGS)}
     for f in growth:
@@ -194,18 +199,18 @@ def test_mse_growth_is_a_regression(baseline):
 
 
 def test_mse_rule_edges(baseline):
-    tol = Tolerances()
+    tol = Tolerances(scope="all")
     assert mse_limit(1.0, tol, 20.0) == pytest.approx(1.1 + 1.0)
     current = json.loads(json.dumps(baseline))
     fit = _fit(current, "log_002", "latzel")
     b = fit["metrics"]["mse_validation"]
     fit["metrics"]["mse_validation"] = b * 1.09  # within the relative tolerance
-    assert compare(current, baseline).ok
+    assert compare(current, baseline, ALL).ok
     fit["metrics"]["mse_validation"] = b * 1.5 + 100.0
-    (f,) = compare(current, baseline).regressions
+    (f,) = compare(current, baseline, ALL).regressions
     assert (f.record, f.method, f.kind) == ("log_002", "latzel", "mse_growth")
     fit["metrics"]["mse_validation"] = math.nan  # no validation data: not compared
-    assert compare(current, baseline).ok
+    assert compare(current, baseline, ALL).ok
 
 
 def test_failed_and_missing_records(baseline):
@@ -214,17 +219,17 @@ def test_failed_and_missing_records(baseline):
                                           "'ERR'; expected a number")
     del current["records"][1]
     del current["records"][1]["fits"][2]
-    result = compare(current, baseline)
+    result = compare(current, baseline, ALL)
     kinds = {(f.record, f.method, f.kind) for f in result.regressions}
     assert ("log_000", None, "status") in kinds
     assert ("log_001", None, "missing") in kinds
     assert ("log_002", METHODS[2], "missing") in kinds
     assert {(f.record, f.method) for f in result.missing} == {("log_001", None),
                                                               ("log_002", METHODS[2])}
-    lenient = compare(current, baseline, Tolerances(missing_is_regression=False))
+    lenient = compare(current, baseline, Tolerances(missing_is_regression=False, scope="all"))
     assert {f.kind for f in lenient.regressions} == {"status"}
     # a record that was already failing is not a regression
-    assert compare(current, current).ok
+    assert compare(current, current, ALL).ok
 
 
 def test_custom_tolerances():
@@ -234,8 +239,9 @@ def test_custom_tolerances():
          "params": {"K": 2.0, "T": 5.0, "delay": 0.0}, "metrics": {}}]}]}
     cur = json.loads(json.dumps(base))
     cur["records"][0]["fits"][0]["params"] = {"K": 2.08, "T": 5.5, "delay": 0.5}
-    assert compare(cur, base).ok  # K +4 %, T +10 %, delay 0.5 s = 10 % of T
-    strict = compare(cur, base, Tolerances(param_tol=0.03, param_tols={"T": 0.05}))
+    assert compare(cur, base, ALL).ok  # K +4 %, T +10 %, delay 0.5 s = 10 % of T
+    strict = compare(cur, base, Tolerances(param_tol=0.03, param_tols={"T": 0.05},
+                                           scope="all"))
     assert {f.parameter for f in strict.regressions} == {"K", "T", "delay"}
     delay = next(f for f in strict.regressions if f.parameter == "delay")
     assert delay.change == pytest.approx(0.5 / 5.0) and delay.tolerance == pytest.approx(0.09)
@@ -268,8 +274,8 @@ def test_structure_change_with_same_response_is_not_a_regression():
     base = doc("two_lags", {"K": 2.0, "T1": 4.0, "T2": 1.0, "delay": 0.0})
     close = doc("n_lags", {"K": 2.0, "T": 2.5, "n": 2, "delay": 0.0})
     far = doc("n_lags", {"K": 2.0, "T": 1.0, "n": 2, "delay": 0.0})
-    assert compare(close, base).ok
-    (f,) = compare(far, base).regressions
+    assert compare(close, base, ALL).ok
+    (f,) = compare(far, base, ALL).regressions
     assert f.parameter == "structure" and (f.baseline_value, f.current_value) == (
         "two_lags", "n_lags")
 
@@ -280,7 +286,7 @@ def test_junit_names_record_method_and_parameter(baseline, tmp_path):
     current = results_doc(plan_logs(N_LOGS, seed=11, noise_seed=5, gain_drift=0.10),
                           METHODS + ("second_order_overshoot",))
     current["records"].append(failed_record("log_bad", "log_bad.csv: the file is empty"))
-    comparison = compare(current, baseline)
+    comparison = compare(current, baseline, ALL)
     path = write_junit(tmp_path / "ci" / "junit.xml", as_doc(current), comparison)
     root = ET.parse(path).getroot()
     (suite,) = root.findall("testsuite")
@@ -309,7 +315,7 @@ def test_junit_without_baseline_and_missing_fit(baseline):
     assert root.find("testsuite").get("failures") == "0"
     current = json.loads(json.dumps(baseline))
     del current["records"][0]["fits"][0]
-    comparison = compare(current, baseline)
+    comparison = compare(current, baseline, ALL)
     root = ET.fromstring(junit_xml(as_doc(current), comparison))
     orphan = [c for c in root.iter("testcase") if c.find("failure") is not None]
     assert [(c.get("classname"), c.get("name")) for c in orphan] == [
@@ -369,7 +375,7 @@ def test_a_version_1_document_is_read(tmp_path, baseline):
     path.write_text(json.dumps(old))
     doc = load_results(path)
     assert doc.schema_version == "1" and doc.records[0].fits[0].ci95 == {}
-    assert compare(baseline, doc).ok
+    assert compare(baseline, doc, ALL).ok
 
 
 def test_a_joint_fit_and_the_first_events_own_fit_are_different_fits():
@@ -388,7 +394,7 @@ def test_a_joint_fit_and_the_first_events_own_fit_are_different_fits():
     changed = doc.model_copy(deep=True)
     joint = next(f for f in changed.records[0].fits if f.events)
     joint.params["K"] *= 1.2
-    (f,) = [x for x in compare(changed, doc).regressions if x.parameter == "K"]
+    (f,) = [x for x in compare(changed, doc, ALL).regressions if x.parameter == "K"]
     assert f.method == "lsq_first_order[0,1]"
     rows = history_rows(doc, None)
     assert {"lsq_first_order", "lsq_first_order[0,1]"} <= set(rows.get_column("method"))

@@ -92,7 +92,13 @@ def test_regression_gate_drift_flagged_fresh_noise_not(tmp_path):
                             "--workers", "1", "--baseline", str(baseline), "--junit",
                             str(junit)])
     assert r.exit_code == 1, r.output
-    failures = ET.parse(junit).getroot().iter("failure")
+    tree = ET.parse(junit).getroot()
+    # every fit's testcase carries its measured time, within the run's
+    cases = [c for c in tree.iter("testcase") if c.get("name", "").startswith("event ")]
+    times = [float(c.get("time")) for c in cases]
+    assert cases and all(t > 0 for t in times)
+    assert sum(times) < float(tree.get("time"))
+    failures = tree.iter("failure")
     texts = [f.get("message", "") + (f.text or "") for f in failures]
     assert texts and any("log_000" in t and "first_order" in t and " K" in t for t in texts)
     html = (tmp_path / "r2" / "report.html").read_text()

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from pipeline.analysis import analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.grading import ranked
 from pipeline.methods import REGISTRY, identify
 from pipeline.models import ProcessModel
@@ -41,6 +41,9 @@ CASES = {
                     0.1, ("zeta", "wn")),
 }
 SEEDS = 50
+
+#: model selection only (the tuning of the recommended model is tested in test_tuning*)
+ONLY_MODELS = AnalysisOptions(tuning=None)
 
 
 def equivalent(model: ProcessModel, structure: str) -> dict | None:
@@ -75,7 +78,7 @@ def runs() -> dict[str, list[dict]]:
         for seed in range(SEEDS):
             rec = step_record(truth, u0=2.0, changes=[(2 * ts, 5.0), (10 * ts, 3.0)],
                               t_end=18 * ts, dt=dt, y0=7.0, noise=sigma, seed=seed)
-            res = analyse(rec)
+            res = analyse(rec, ONLY_MODELS)
             graphical = [f for f in ranked(res, 0) if REGISTRY[f.method].kind == "graphical"]
             rec_fit, best_graph = res.recommended, graphical[0]
             rows.append({"rec": errors(rec_fit.model, truth),

@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.analysis import analyse
+from pipeline.analysis import AnalysisOptions, analyse
 from pipeline.grading.recommendation import AIC_MARGIN
 from pipeline.models import ProcessModel
 from pipeline.record import make_record
@@ -32,6 +32,9 @@ SEEDS = range(50)
 INT_LAG = ProcessModel("integrator_lag", {"K": 0.5, "T": 4.0, "delay": 1.0})
 INT = ProcessModel("integrator", {"K": 0.5, "delay": 1.0})
 UNITS = {"time": "s", "input": "V", "output": "cm"}
+
+#: model selection only (the tuning of the recommended model is tested in test_tuning*)
+ONLY_MODELS = AnalysisOptions(tuning=None)
 
 
 def _record(truth, seed, *, noise, t_end, dt, steps=((10.0, 3.0),)):
@@ -47,7 +50,7 @@ def test_integrating_data_gets_an_integrating_model(truth, steps):
     """A step 1 -> 3 (and back to 2, the second step validating): the recommended model is
     integrating in at least 95 % of 50 seeds (in all of them here), and its gain within
     2 % in at least 95 %."""
-    chosen = [analyse(_record(truth, s, noise=0.05, t_end=60.0, dt=0.1, steps=steps))
+    chosen = [analyse(_record(truth, s, noise=0.05, t_end=60.0, dt=0.1, steps=steps), ONLY_MODELS)
               .recommended for s in SEEDS]
     assert np.mean([f.model.integrating for f in chosen]) >= 0.95
     assert np.mean([abs(f.model.K / 0.5 - 1) <= 0.02 for f in chosen]) >= 0.95
@@ -70,8 +73,8 @@ def test_self_regulating_data_gets_a_self_regulating_model(case):
     seeds (all here). On the slow lag's short window the integrating refinements apply
     and are fitted, and lose by more than the AIC margin in every seed (by 300 or more)."""
     truth, t_end, dt = SELF_REGULATING[case]
-    results = [analyse(_record(truth, s, noise=0.01 * 2 * abs(truth.K), t_end=t_end, dt=dt))
-               for s in SEEDS]
+    results = [analyse(_record(truth, s, noise=0.01 * 2 * abs(truth.K), t_end=t_end, dt=dt),
+                       ONLY_MODELS) for s in SEEDS]
     assert np.mean([not r.recommended.model.integrating for r in results]) >= 0.95
     if case.startswith("slow"):
         for r in results:
@@ -96,7 +99,7 @@ def test_a_pulse_gets_the_structure_of_its_plant(truth):
     for seed in range(20):
         rec = make_record(t, u, response(truth, t, u, 1.0, 3.0, 0.02, seed), name="p",
                           source="<pulse>")
-        res = analyse(rec)
+        res = analyse(rec, ONLY_MODELS)
         assert res.events[0].kind == "impulse"
         fit = res.recommended
         assert fit.method.startswith("lsq_") and fit.model.integrating == truth.integrating
@@ -112,7 +115,7 @@ def test_inverse_response_is_recognised():
                                            "delay": 1.0})
     lags = ("first_order", "second_order", "two_lags", "n_lags")
     for seed in range(20):
-        res = analyse(_record(truth, seed, noise=0.04, t_end=90.0, dt=0.1))
+        res = analyse(_record(truth, seed, noise=0.04, t_end=90.0, dt=0.1), ONLY_MODELS)
         for f in res.fits:
             if f.ok and f.model.structure in lags:
                 assert f.method.startswith("lsq_") and f.flags, f.method
@@ -127,7 +130,8 @@ def test_a_settled_step_is_no_integrator():
     point could pass it off as a ramp hidden in the baseline that stops when the step
     brings the input to balance; the integrating refinements do not apply, and say why."""
     truth = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 0.5})
-    res = analyse(_record(truth, 0, noise=0.04, t_end=80.0, dt=0.2, steps=((2.0, 3.0),)))
+    res = analyse(_record(truth, 0, noise=0.04, t_end=80.0, dt=0.2, steps=((2.0, 3.0),)),
+                  ONLY_MODELS)
     for mid in ("lsq_integrator", "lsq_integrator_lag"):
         fit = res.fit(mid, 0)
         assert fit.status == "not_applicable" and "settles at a new level" in fit.reason
@@ -153,7 +157,7 @@ def test_a_turning_integrator_validates_on_its_balance_point():
     the rest is its own estimation error)."""
     mses = []
     for seed in range(20):
-        res = analyse(_turning(seed))
+        res = analyse(_turning(seed), ONLY_MODELS)
         assert res.events[0].drift == pytest.approx(0.2, rel=0.05)
         fit = res.recommended
         assert fit.model.integrating, res.recommendation.reason
@@ -170,7 +174,7 @@ def test_report_baseline_and_history_carry_the_new_structures():
     """An integrator with a lag in cm and V: the report's tables give its gain in cm/V/s
     and draw its fits; a 10 % larger gain in the baseline is a regression of K for each
     integrating fit; the history has its K, T and delay (and Tz for a zero's fit)."""
-    from pipeline.gate.baseline import compare
+    from pipeline.gate.baseline import Tolerances, compare
     from pipeline.gate.history import history_rows
     from pipeline.report.build import render
     from pipeline.results import RunResult
@@ -179,7 +183,7 @@ def test_report_baseline_and_history_carry_the_new_structures():
         rec = _record(truth, 0, noise=0.05, t_end=60.0, dt=0.1, steps=((10.0, 3.0),
                                                                        (35.0, 2.0)))
         rec = make_record(rec.t, rec.u, rec.y, name="tank", source="<tank>", units=UNITS)
-        return RunResult([analyse(rec)], config="t")
+        return RunResult([analyse(rec, ONLY_MODELS)], config="t")
 
     current = run(INT_LAG)
     doc = current.to_doc()
@@ -188,7 +192,7 @@ def test_report_baseline_and_history_carry_the_new_structures():
     assert "K in cm/V/s, T in s, delay in s" in md and "| cm/V/s |" in md
     assert any(name.endswith("_ident_second.png") for name in files)
     baseline = run(ProcessModel("integrator_lag", {**INT_LAG.params, "K": 0.55})).to_doc()
-    drifted = {f.method for f in compare(doc, baseline).regressions
+    drifted = {f.method for f in compare(doc, baseline, Tolerances(scope="all")).regressions
                if f.kind == "param_drift" and f.parameter == "K"}
     assert {"integrator_asymptote", "lsq_integrator", "lsq_integrator_lag"} <= drifted
     rows = history_rows(doc, None)
@@ -218,7 +222,7 @@ def test_dc_motor_speed_and_position():
 
     path = fetch("daniw-dc-step")
     speed = analyse(pipeline.load(path, input="Motorspannung", output="Geschwindigkeit",
-                                  time="Zeit"))
+                                  time="Zeit"), ONLY_MODELS)
     assert not speed.recommended.model.integrating
     assert speed.recommended.model.K == pytest.approx(151.0, rel=0.02)
     wrapped = pipeline.load(path, input="Motorspannung", output="Position", time="Zeit")
@@ -226,7 +230,7 @@ def test_dc_motor_speed_and_position():
     rec = make_record(wrapped.t, wrapped.u, np.unwrap(wrapped.y, period=POSITION_PERIOD),
                       name="position", source=str(path),
                       units={"time": "s", "input": "V", "output": "count"})
-    res = analyse(rec)
+    res = analyse(rec, ONLY_MODELS)
     (ev,) = res.events
     assert ev.response == "ramp" and ev.drift > 0
     fit = res.recommended
@@ -246,7 +250,7 @@ def test_tank_level_is_self_regulating():
     from pipeline.io.datasets import fetch
 
     res = analyse(pipeline.load(fetch("daniw-level-step"), input="PumpeRechts",
-                                output="NiveauTank2", time="Zeit"))
+                                output="NiveauTank2", time="Zeit"), ONLY_MODELS)
     assert res.events[0].settled and res.events[0].response == "settling"
     assert all(not f.ok for f in res.fits if f.method.startswith("lsq_integrator"))
     model = res.recommended.model

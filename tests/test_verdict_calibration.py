@@ -31,6 +31,9 @@ CLEAN_CONDITIONS = (Condition("white", 0.02, 3.0), Condition("ar1", 0.01, 3.0),
 OK_AT_LEAST = {"white": 0.95, "ar1": 0.75, "pink": 0.85}
 SEEDS = 4
 
+#: model selection only (the tuning of the recommended model is tested in test_tuning*)
+ONLY_MODELS = AnalysisOptions(tuning=None)
+
 
 @pytest.fixture(scope="module")
 def clean_rows() -> list[dict]:
@@ -38,7 +41,7 @@ def clean_rows() -> list[dict]:
     for name in CLEAN_PLANTS:
         for cond in CLEAN_CONDITIONS:
             for seed in range(SEEDS):
-                res = analyse(mc_record(PLANTS[name], cond, seed))
+                res = analyse(mc_record(PLANTS[name], cond, seed), ONLY_MODELS)
                 fit = res.recommended
                 s = score(fit.model, PLANTS[name], cond)
                 rows.append({"plant": name, "kind": cond.kind, "verdict": fit.verdict,
@@ -78,7 +81,7 @@ def test_one_step_records_give_no_undetermined_model_and_the_gain():
         for seed in range(20):
             rec = step_record(truth, u0=2.0, changes=[(40.0, 5.0)], t_end=100.0, dt=0.2,
                               y0=7.0, noise=0.03 * truth.K, seed=seed)
-            fit = analyse(rec).recommended
+            fit = analyse(rec, ONLY_MODELS).recommended
             gains.append(abs(fit.model.K / truth.K - 1) <= 0.03)
             if undetermined(fit):
                 bad.append((seed, fit.method))
@@ -101,7 +104,8 @@ def test_one_verdict_per_model_whichever_events_identify():
     for rec, flagged in ((linear, False), (moving, True)):
         verdicts = []
         for events in ((0,), "all"):
-            fit = analyse(rec, AnalysisOptions(events=events)).fit("lsq_first_order", 0, ())
+            fit = analyse(rec, AnalysisOptions(tuning=None, events=events)).fit(
+                "lsq_first_order", 0, ())
             verdicts.append((fit.verdict, "validation_misfit" in {f.code for f in fit.flags}))
         assert verdicts[0] == verdicts[1], (rec.name, verdicts)
         assert verdicts[0][1] == flagged, (rec.name, verdicts)
@@ -121,7 +125,7 @@ def test_a_slow_noise_baseline_is_no_drift_a_real_drift_is():
         for drift in (0.0, 1.7):  # 1.7 (e^-1 - e^-2.5) = 0.49, 8 % of the step's 6
             y = base + drift * (1.0 - np.exp(-(t + 40.0) / 40.0))
             res = analyse(make_record(t, u, y, name="b", source="<b>"),
-                          AnalysisOptions(methods=("first_order",)))
+                          AnalysisOptions(tuning=None, methods=("first_order",)))
             codes = {f.code for f in res.fit("first_order", 0).flags}
             flagged.append((drift > 0, "baseline_not_steady" in codes))
     assert not any(f for d, f in flagged if not d), flagged
@@ -135,7 +139,7 @@ def test_a_mostly_settled_window_is_information_a_short_one_a_warning():
     for window, severity in ((22.0, "info"), (15.0, "warning")):
         rec = step_record(truth, u0=2.0, changes=[(30.0, 5.0)], t_end=30.0 + window, dt=0.1,
                           y0=7.0, noise=0.02, seed=4)
-        fit = analyse(rec, AnalysisOptions(methods=("lsq_first_order",))).fit(
+        fit = analyse(rec, AnalysisOptions(tuning=None, methods=("lsq_first_order",))).fit(
             "lsq_first_order", 0)
         flag = next(f for f in fit.flags if f.code == "unsettled")
         assert flag.severity == severity, (window, flag.message)
@@ -151,12 +155,12 @@ def test_no_usable_model_is_said_not_recommended():
     rng = np.random.default_rng(2)
     y = 5.0 + np.repeat(rng.normal(0.0, 2.0, 12), t.size // 12 + 1)[: t.size]
     y += rng.normal(0.0, 0.02, t.size)
-    res = analyse(make_record(t, u, y, name="junk", source="<junk>"))
+    res = analyse(make_record(t, u, y, name="junk", source="<junk>"), ONLY_MODELS)
     assert res.recommended is None
     (flag,) = [f for f in res.flags if f.code == "no_usable_model"]
     assert flag.severity == "unreliable" and "unreliable -" in flag.message
     clean = mc_record(PLANTS["two_lags"], Condition("white", 0.01, 4.0), 0)
-    assert analyse(clean).recommended is not None
+    assert analyse(clean, ONLY_MODELS).recommended is not None
 
 
 def test_a_self_regulating_plant_is_never_given_an_integrator():
@@ -170,7 +174,7 @@ def test_a_self_regulating_plant_is_never_given_an_integrator():
     for name in ("underdamped_0.6", "two_lags", "fopdt_delay0.05"):
         for seed in range(5):
             cond = Condition("white", 0.005, 1.0)
-            fit = analyse(mc_record(PLANTS[name], cond, seed)).recommended
+            fit = analyse(mc_record(PLANTS[name], cond, seed), ONLY_MODELS).recommended
             if fit is not None:
                 given.append((name, fit.model.integrating, fit.verdict == "ok"
                               and not score(fit.model, PLANTS[name], cond).right))
@@ -181,11 +185,11 @@ def test_a_self_regulating_plant_is_never_given_an_integrator():
     for seed in range(20):
         rec = step_record(heater, u0=0.0, changes=changes, t_end=900.0, dt=1.0, y0=21.0,
                           noise=0.15, seed=seed)
-        fit = analyse(rec).recommended
+        fit = analyse(rec, ONLY_MODELS).recommended
         regulating.append(fit is not None and not fit.model.integrating)
     assert np.mean(regulating) >= 0.95, regulating
     ramps = mc_record(PLANTS["integrator_lag"], Condition("white", 0.01, 4.0), 1)
-    assert analyse(ramps).recommended.model.integrating
+    assert analyse(ramps, ONLY_MODELS).recommended.model.integrating
 
 
 def test_a_record_that_starts_mid_transient_says_to_declare_the_initial_input():
@@ -207,11 +211,11 @@ def test_a_record_that_starts_mid_transient_says_to_declare_the_initial_input():
     ym = response(motor, tm, um, 2.0, 7.0, noise=0.01, seed=2)
     keep = tm >= 0
     turning = make_record(tm[keep], um[keep], ym[keep], name="turning", source="<turning>")
-    found = {r.name: {f.code for f in analyse(r).flags}
+    found = {r.name: {f.code for f in analyse(r, ONLY_MODELS).flags}
              for r in (hidden, declared, at_rest, turning)}
     assert "starts_mid_transient" in found["hidden"], found
     assert not any("starts_mid_transient" in found[k] for k in
                    ("declared", at_rest.name, "turning")), found
     flat = make_record(t, np.full(t.size, 50.0), y, name="flat", source="<flat>")
-    err = analyse(flat).error
+    err = analyse(flat, ONLY_MODELS).error
     assert "constant at 50" in err and "initial_input" in err, err

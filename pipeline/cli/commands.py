@@ -114,7 +114,13 @@ def run(
     = 0.05,
     mse_tol: Annotated[float, typer.Option(help="validation MSE growth tolerance")] = 0.10,
     tol: Annotated[list[str] | None, typer.Option(
-        help="per-parameter tolerance, e.g. --tol T=0.1 (repeatable)")] = None,
+        help="per-parameter tolerance, e.g. --tol T=0.1 or --tol Kc=0.2 (repeatable)")]
+    = None,
+    gate: Annotated[str, typer.Option(
+        metavar="recommended|all",
+        help="what fails the gate: the recommended model (its parameters, tuning, verdict, "
+             "validation error) or every method; the others are listed for information")]
+    = "recommended",
     quiet: Annotated[bool, typer.Option(
         "--quiet", "-q", help="errors only on stderr (no progress bar)")] = False,
     verbose: Annotated[bool, typer.Option(
@@ -130,7 +136,7 @@ def run(
     from .run_command import run_command
 
     outcome = run_command(config, out_dir, workers, executor, scheduler, baseline, junit,
-                          history, progress, param_tol, mse_tol, tol, quiet, verbose)
+                          history, progress, param_tol, mse_tol, tol, quiet, verbose, gate)
     for line in outcome.run.failures:
         error_line(line)
     for line in outcome.messages:
@@ -263,6 +269,11 @@ def _print_ranking(res) -> None:
             out.print(f"  [{VERDICT_STYLE[f['severity']]}]{f['code']}[/] "
                       f"{escape(printable(f['message']))}")
         out.print(f"  why: {box['reason']}", markup=False)
+        if res.tuning is not None:
+            from ..report import controller_lines
+
+            for line in controller_lines(res.tuning):
+                out.print(printable(line), markup=False)
     else:
         out.print(f"No model recommended for {escape(printable(res.name))}: "
                   f"[{VERDICT_STYLE['unreliable']}]unreliable[/]")
@@ -279,6 +290,64 @@ def _print_ranking(res) -> None:
         for f in res.fits:
             if f.event == i and not f.ok:
                 out.print(printable(f"  {f.method}: {f.status}: {f.reason}"), markup=False)
+
+
+@app.command(context_settings={"allow_extra_args": True})
+@handled
+def tune(
+    ctx: typer.Context,
+    source: Annotated[str, typer.Argument(
+        help="a results.json, or a model structure followed by its parameters: "
+             "first_order K=2 T=10 delay=1")],
+    rule: Annotated[str, typer.Option(help="simc, simc_improved, lambda or amigo")] = "simc",
+    kind: Annotated[str, typer.Option(help="auto, P, PI or PID")] = "auto",
+    tau_c: Annotated[str | None, typer.Option(
+        "--tau-c", help="closed-loop time constant (lambda) in s, or tight, smooth, robust "
+                        "(the fastest with worst-case Ms at most --ms-target)")] = None,
+    ms_target: Annotated[float, typer.Option(help="worst-case Ms for --tau-c robust")] = 1.7,
+    form: Annotated[str, typer.Option(help="ideal, parallel or series")] = "ideal",
+    time_unit: Annotated[str, typer.Option(help="s or min")] = "s",
+    input_span: Annotated[float | None, typer.Option(help="input instrument span")] = None,
+    output_span: Annotated[float | None, typer.Option(help="output instrument span")] = None,
+    record: Annotated[str | None, typer.Option(help="only this record of a results.json")]
+    = None,
+    as_json: Annotated[bool, typer.Option("--json", help="print the tuning as JSON")] = False,
+) -> None:
+    """Tune a controller from identified models: `pipeline tune reports/x/results.json`
+    or `pipeline tune first_order K=2 T=10 delay=1 --rule amigo`."""
+    import json
+
+    from ..config import TuningConfig
+    from ..report import controller_lines
+    from ..tuning import tuning_doc
+    from .tune_command import tune_command
+
+    raw = {"rule": rule, "kind": kind, "form": form, "time_unit": time_unit,
+           "input_span": input_span, "output_span": output_span, "ms_target": ms_target}
+    if tau_c is not None:
+        try:
+            raw["tau_c"] = float(tau_c)
+        except ValueError:
+            raw["tau_c"] = tau_c
+    from pydantic import ValidationError
+
+    try:
+        options = TuningConfig.model_validate(raw).options()
+    except ValidationError as exc:
+        e = exc.errors()[0]
+        key = str(e["loc"][0]).replace("_", "-")
+        raise UserError(f"--{key} {raw.get(e['loc'][0])!r}: "
+                        f"{e['msg'].removeprefix('Value error, ')}") from None
+    results = tune_command(source, list(ctx.args), options, record)
+    if as_json:
+        docs = [{"name": n, "tuning": tuning_doc(rt).model_dump(mode="json")}
+                for n, rt in results]
+        sys.stdout.write(json.dumps(docs, indent=1) + "\n")
+        return
+    for name, rt in results:
+        out.print(f"{printable(name)}:", markup=False)
+        for line in controller_lines(rt):
+            out.print(printable(line), markup=False)
 
 
 @app.command()

@@ -7,7 +7,7 @@ from ..errors import UserError
 
 
 def run_command(config, out_dir, workers, executor, scheduler, baseline, junit, history,
-                progress, param_tol, mse_tol, tol, quiet, verbose):
+                progress, param_tol, mse_tol, tol, quiet, verbose, gate="recommended"):
     """``pipeline run`` once its options are parsed: checked, logged, run."""
     from ..log import configure
     from ..run import run_config
@@ -17,18 +17,21 @@ def run_command(config, out_dir, workers, executor, scheduler, baseline, junit, 
     if scheduler is not None and executor != "dask":
         raise UserError(f"--scheduler {scheduler!r} needs --executor dask")
     configure("quiet" if quiet else "verbose" if verbose else "normal")
-    tols = tolerances(tol or [], param_tol=param_tol, mse_tol=mse_tol)
+    if gate not in ("recommended", "all"):
+        raise UserError(f"--gate {gate!r}: expected recommended or all")
+    tols = tolerances(tol or [], param_tol=param_tol, mse_tol=mse_tol, scope=gate)
     return run_config(config, out_dir=out_dir, workers=workers, executor=executor,
                       scheduler=scheduler, baseline=baseline, junit=junit, history=history,
                       progress=False if quiet else progress, tolerances=tols)
 
 
-def tolerances(items: list[str], *, param_tol: float = 0.05, mse_tol: float = 0.10):
+def tolerances(items: list[str], *, param_tol: float = 0.05, mse_tol: float = 0.10,
+               scope: str = "recommended"):
     """The gate's :class:`~pipeline.gate.Tolerances` from ``--param-tol``, ``--mse-tol``
     and each ``--tol PARAMETER=FRACTION`` (names from the parameter table); a NaN,
     negative or infinite one (the gate would switch off or fire on everything) is one
     line naming the option."""
-    from ..gate import Tolerances, tolerance_problem
+    from ..gate import SETTINGS, Tolerances, tolerance_problem
     from ..models import PARAMETERS
 
     for option, name, value in (("--param-tol", "param_tol", param_tol),
@@ -44,10 +47,10 @@ def tolerances(items: list[str], *, param_tol: float = 0.05, mse_tol: float = 0.
             per[name] = float(value) if eq else float("x")
         except ValueError:
             raise UserError(f"--tol {item!r}: expected PARAMETER=FRACTION, e.g. T=0.1") from None
-        if name not in PARAMETERS:
+        if name not in PARAMETERS and name not in SETTINGS:
             raise UserError(f"--tol {item!r}: unknown parameter {name!r}; expected one of "
-                            + ", ".join(PARAMETERS))
+                            + ", ".join((*PARAMETERS, *SETTINGS)))
         problem = tolerance_problem(f"tolerance of {name}", per[name])
         if problem:
             raise UserError(f"--tol {item!r}: {problem}")
-    return Tolerances(param_tol=param_tol, mse_tol=mse_tol, param_tols=per)
+    return Tolerances(param_tol=param_tol, mse_tol=mse_tol, param_tols=per, scope=scope)

@@ -49,6 +49,9 @@ a joint fit: :func:`pipeline.schema.fit_label`). :func:`compare` returns a
   (impulses only) the floor is 0.
 * **status** - a fit that was ok is now ``not_applicable`` or ``failed``, or a record
   that was ok has now failed.
+* **tuning_drift** / **tuning_verdict** - the controller tuned from the recommended
+  model moved (Kc, Ti, Td beyond tolerance and beyond their spread over the intervals)
+  or its verdict got worse: :mod:`pipeline.gate.tuning_findings`.
 * **missing** - a record, or a fit that was ok, is in the baseline but not in the current
   results (``missing_is_regression=False`` only lists them).
 
@@ -70,6 +73,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -87,6 +91,7 @@ from .findings import (
     recommended_fit,
     tag_recommended,
 )
+from .tuning_findings import tuning_findings
 
 __all__ = ["Comparison", "Finding", "Tolerances", "accept", "compare", "load_baseline",
            "tolerance_problem"]
@@ -101,8 +106,14 @@ class Tolerances:
     dynamics_factor: float = 3.0
     mse_tol: float = 0.10
     missing_is_regression: bool = True
+    #: "recommended": only the recommended model (its parameters, tuning, verdict,
+    #: validation error) and the records gate; other methods' changes are information.
+    #: "all": every method's too.
+    scope: Literal["recommended", "all"] = "recommended"
 
     def __post_init__(self) -> None:
+        if self.scope not in ("recommended", "all"):
+            raise UserError(f"gate scope {self.scope!r}: expected recommended or all")
         named = {"param_tol": self.param_tol, "mse_tol": self.mse_tol,
                  "dynamics_factor": self.dynamics_factor,
                  **{f"tolerance of {k}": v for k, v in self.param_tols.items()}}
@@ -147,19 +158,87 @@ def compare(current: ResultsDoc | dict, baseline: ResultsDoc | dict,
         found.extend(_compare_record(name, cur.get(name), b, tol))
     found.extend(_new_item(name, None, None, "record not in the baseline")
                  for name in cur if name not in base)
+    found.extend(f for name, b in base.items() if name in cur
+                 for f in recommended_findings(name, cur[name], b, tol))
     found = [tag_recommended(f, recommended) for f in found]
     missing = tuple(f for f in found if f.kind == "missing")
-    regressions = tuple(f for f in found if f.kind not in ("new", "missing") or (
-        f.kind == "missing" and tol.missing_is_regression and f.baseline_value == "ok"))
+    failing = [f for f in found if f.kind not in ("new", "missing") or (
+        f.kind == "missing" and tol.missing_is_regression and f.baseline_value == "ok")]
+    other = [f for f in failing if tol.scope == "recommended" and f.method is not None
+             and recommended.get(f.record) != (f.event, f.method)]
+    kept = {id(f) for f in other}
     return Comparison(
-        regressions=regressions,
+        regressions=tuple(f for f in failing if id(f) not in kept),
         new=tuple(f for f in found if f.kind == "new"),
         missing=missing,
+        other=tuple(other),
         settings={"param_tol": tol.param_tol, "param_tols": dict(tol.param_tols),
                   "dynamics_factor": tol.dynamics_factor, "mse_tol": tol.mse_tol,
-                  "missing_is_regression": tol.missing_is_regression},
+                  "missing_is_regression": tol.missing_is_regression, "scope": tol.scope},
         recommended={k: v for k, v in recommended.items() if v is not None},
     )
+
+
+#: A recommended model's verdict that is a regression to reach from ok or warning: the
+#: model is not to be used. ok -> warning is information (a warning limits a model that
+#: is still the one to use, and flips with the noise near a flag's threshold).
+UNUSABLE = "unreliable"
+
+
+def recommended_findings(name: str, cur: RecordDoc, base: RecordDoc, tol: Tolerances
+                         ) -> list[Finding]:
+    """What changed about a record's answer (both runs ok): it has no recommended model
+    now, the recommended model became unreliable, or another method is recommended with
+    a model that is not equivalent (step responses further apart than the dynamics
+    tolerance, or a gain beyond its tolerance and its intervals). Another method with an
+    equivalent model is information, not a regression."""
+    if base.status != "ok" or cur.status != "ok" or base.recommended is None:
+        return []
+    b, c = base.recommended, cur.recommended
+    if c is None:
+        return [Finding(name, None, None, "recommended", "recommended", b.label, None,
+                        message=f"{name}: no recommended model now (was {b.label}, event "
+                                f"{b.event}); {cur.error or 'see the flags of the record'}")]
+    where = f"{name} event {c.event} {c.label}"
+    out = []
+    if c.verdict == UNUSABLE and b.verdict != UNUSABLE:
+        out.append(Finding(name, c.event, c.label, "verdict", "verdict", b.verdict,
+                           c.verdict, message=f"{where}: the recommended model's verdict "
+                                              f"got worse: {b.verdict} -> {c.verdict}"))
+    elif c.verdict != b.verdict and _rank(c.verdict) > _rank(b.verdict):
+        out.append(Finding(name, c.event, c.label, "new", "verdict", b.verdict, c.verdict,
+                           message=f"{where} (verdict {b.verdict} -> {c.verdict})"))
+    if (b.event, b.label) == (c.event, c.label):
+        return out
+    dist = step_response_distance(b.structure, b.params or {}, c.structure, c.params or {})
+    k_change = relative_change("K", b.structure, b.params or {}, (c.params or {}).get(
+        "K", math.nan)) if b.params and "K" in b.params else math.nan
+    k_ok = abs(k_change) <= tol.for_param("K") or _within_ci("K", b, c)
+    if math.isfinite(dist) and dist <= tol.dynamics and k_ok:
+        out.append(Finding(name, c.event, c.label, "new", "recommended", b.label, c.label,
+                           message=f"{where} (recommended instead of {b.label}, event "
+                                   f"{b.event}: an equivalent model, step responses within "
+                                   f"{pct_text(dist, sign=False)} of the gain)"))
+        return out
+    out.append(Finding(
+        name, c.event, c.label, "recommended", "recommended", b.label, c.label, dist,
+        tol.dynamics, message=f"{where}: recommended instead of {b.label} (event {b.event}), "
+                              f"a different model: step responses differ by up to "
+                              f"{pct_text(dist, sign=False)} of the gain (tolerance "
+                              f"{pct_text(tol.dynamics, sign=False)})"))
+    return out
+
+
+def _rank(verdict: str | None) -> int:
+    return {"ok": 0, "warning": 1, "unreliable": 2}.get(str(verdict), 0)
+
+
+def _within_ci(name: str, b, c) -> bool:
+    hb, hc = _half((b.ci95 or {}).get(name)), _half((c.ci95 or {}).get(name))
+    bv, cv = (b.params or {}).get(name), (c.params or {}).get(name)
+    if hb is None or hc is None or bv is None or cv is None:
+        return False
+    return abs(float(cv) - float(bv)) <= math.hypot(hb, hc)
 
 
 def _compare_record(name: str, cur: RecordDoc | None, base: RecordDoc, tol: Tolerances
@@ -177,7 +256,10 @@ def _compare_record(name: str, cur: RecordDoc | None, base: RecordDoc, tol: Tole
         return [_new_item(name, None, None, f"record now ok (was {b_status})")]
     if c_status != "ok":
         return []
-    return _compare_fits(name, cur, base, tol)
+    fits = _compare_fits(name, cur, base, tol)
+    key = recommended_fit(cur, base)
+    drifted = any(f.kind == "param_drift" and (f.event, f.method) == key for f in fits)
+    return [*fits, *tuning_findings(name, cur, base, key, tol, drifted)]
 
 
 def _fits(record: RecordDoc) -> dict[tuple[int, str], FitDoc]:

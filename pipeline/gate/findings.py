@@ -21,7 +21,7 @@ class Finding:
 
     ``event`` and ``method`` are ``None`` for record-level findings. ``change`` is the
     relative change (a fraction; see the module docstring for the scale) for
-    param_drift and mse_growth, ``None`` otherwise. ``tolerance`` is the limit it was
+    param_drift, mse_growth and tuning_drift, ``None`` otherwise. ``tolerance`` is the limit it was
     compared with.
     """
 
@@ -53,6 +53,8 @@ class Finding:
         """Display strings for a report table: record, event, method, what, baseline,
         current, change."""
         what = {"mse_growth": "validation MSE", "status": "status",
+                "tuning_verdict": "tuning verdict", "recommended": "recommended model",
+                "verdict": "verdict",
                 "missing": "missing", "new": "new"}.get(self.kind, self.parameter or "")
         return {
             "record": self.record,
@@ -115,6 +117,9 @@ class Comparison:
     regressions: tuple[Finding, ...] = ()
     new: tuple[Finding, ...] = ()
     missing: tuple[Finding, ...] = ()
+    #: changes of the methods that are not the recommended model, beyond tolerance:
+    #: information under the default scope "recommended" (regressions with "all")
+    other: tuple[Finding, ...] = ()
     settings: dict = field(default_factory=dict)
     recommended: Mapping[str, tuple[int, str]] = field(default_factory=dict)
 
@@ -158,7 +163,9 @@ class Comparison:
         else:
             n_rec = len(self.regressed_records)
             head = f"{len(self.regressions)} regression(s) in {n_rec} record(s)"
-        return f"{head}; {len(self.new)} new, {len(self.missing)} missing"
+        tail = f"; {len(self.other)} change(s) of other methods (information)" \
+            if self.other else ""
+        return f"{head}; {len(self.new)} new, {len(self.missing)} missing{tail}"
 
     def to_dict(self) -> dict:
         return {
@@ -171,6 +178,7 @@ class Comparison:
                          "on_recommended": r.on_recommended,
                          "findings": len(r.findings)} for r in self.by_record()],
             "new": [f.to_dict() for f in self.new],
+            "other": [f.to_dict() for f in self.other],
             "missing": [f.to_dict() for f in self.missing],
         }
 

@@ -6,8 +6,10 @@ written before pipeline 0.3, which :func:`pipeline.report.history_plots.recommen
 falls back on; null since), ``recommended`` (the record's recommended model), one
 column per parameter of :data:`pipeline.models.PARAMETERS` (null when the model has no
 such parameter), one per metric of :class:`pipeline.schema.MetricsDoc` (null when not
-computed) and ``pipeline_version``. A record that failed has one row with null event and method and
-status ``failed``.
+computed), the tuned controller's ``Kc``, ``Ti``, ``Td`` (ideal form, seconds; ``Kc``
+signed) and ``tuning_verdict`` on the recommended model's row (null elsewhere, and ``Ti``
+null without integral action), and ``pipeline_version``. A record that failed has one
+row with null event and method and status ``failed``.
 
 :func:`history_rows` is pure; :func:`append_history` reads the existing file, appends
 (polars ``concat(how="diagonal_relaxed")``, so files written by older versions with fewer
@@ -48,6 +50,10 @@ SCHEMA: dict[str, pl.DataType] = {
     "recommended": pl.Boolean(),
     **{p: pl.Float64() for p in PARAMETERS},
     **{m: pl.Float64() for m in METRICS},
+    "Kc": pl.Float64(),
+    "Ti": pl.Float64(),
+    "Td": pl.Float64(),
+    "tuning_verdict": pl.String(),
     "pipeline_version": pl.String(),
 }
 
@@ -74,15 +80,26 @@ def history_rows(results: ResultsDoc, run_time: datetime | None) -> pl.DataFrame
             params = fit.params or {}
             metrics = fit.metrics.model_dump()
             key = (fit.label, fit.event)
+            chosen = rec.recommended is not None and key == (rec.recommended.label,
+                                                             rec.recommended.event)
             rows.append({
                 **base, "event": fit.event, "method": fit.label, "status": fit.status,
                 "structure": fit.structure, "verdict": fit.verdict,
-                "recommended": rec.recommended is not None
-                and key == (rec.recommended.label, rec.recommended.event),
+                "recommended": chosen,
                 **{p: _number(params.get(p)) for p in PARAMETERS},
                 **{m: _number(metrics.get(m)) for m in METRICS},
+                **(_tuning_columns(rec.tuning) if chosen else {}),
             })
     return pl.DataFrame(rows, schema=SCHEMA)
+
+
+def _tuning_columns(t) -> dict:
+    """The tuned settings a history keeps (ideal form, seconds), when there are some."""
+    if t is None or t.status != "ok" or t.controller is None:
+        return {}
+    c = t.controller
+    return {"Kc": _number(c.Kc), "Ti": _number(c.Ti), "Td": _number(c.Td),
+            "tuning_verdict": t.verdict}
 
 
 def _number(v) -> float | None:

@@ -13,7 +13,7 @@ _EXPORTS = {
     "write_junit": "junit", "check_target": "outdir", "gate_lines": "regressions",
     "fmt": "tables", "PARAMETERS_COLUMN": "tables",
     "ranking_table": "tables", "recommended_box": "tables",
-    "response_text": "tables",
+    "response_text": "tables", "controller_lines": "controller",
 }
 
 __all__ = sorted(_EXPORTS)

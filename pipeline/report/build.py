@@ -77,7 +77,8 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
     summary, gate = summary_table(results, anchors), None
     if extras.comparison is not None:
         gate = regression_section(extras.comparison, dict(zip(names, anchors, strict=True)))
-        summary = mark_summary(summary, extras.comparison, names)
+        summary = mark_summary(summary, extras.comparison, names,
+                               failed={r.name for r in results if not r.ok})
     ctx = {
         "title": title, "doc": doc, "records": sections, "gate": gate,
         "summary": summary, "extras": extras, "history": history,

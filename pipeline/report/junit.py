@@ -2,7 +2,8 @@
 
 Testcases (``classname`` = the record name):
 
-* ``name = "event N / method"`` for each fit of the current run: passes, or one
+* ``name = "event N / method"`` for each fit of the current run (``time``: the method's
+  and its validation's wall time, when the run measured it): passes, or one
   ``<failure>`` per regression of that fit (type = the finding's kind, the message names
   record, method, parameter, baseline, current and change); ``not_applicable`` and
   ``failed`` fits that are not regressions are ``<skipped>`` with their reason;
@@ -32,6 +33,7 @@ import math
 import os
 import socket
 import xml.etree.ElementTree as ET
+from collections.abc import Mapping
 from pathlib import Path
 
 from ..files import write_atomic
@@ -43,12 +45,16 @@ SUITE = "pipeline"
 
 
 def junit_xml(current: ResultsDoc, comparison: Comparison | None = None, *,
-              time: float | None = None, hostname: str | None = None) -> str:
+              time: float | None = None, hostname: str | None = None,
+              times: Mapping[tuple[str, int, str], float] | None = None) -> str:
     """The JUnit XML document of a results document and its comparison (or none).
 
     ``time``: the run's wall time in seconds (the testcases' sum, 0, when not given);
-    ``hostname``: where it ran (this machine's name when not given).
+    ``hostname``: where it ran (this machine's name when not given); ``times``: each
+    fit's wall time, by ``(record, event, label)`` (its testcase's ``time``; 0 for a fit
+    not in it, e.g. read from a results.json, which keeps no times).
     """
+    times = times or {}
     comparison = comparison or Comparison()
     suite = ET.Element("testsuite", {"name": _suite_name(current)})
     if current.created:
@@ -65,7 +71,7 @@ def junit_xml(current: ResultsDoc, comparison: Comparison | None = None, *,
         for fit in rec.fits:
             key = (name, fit.event, fit.label)
             seen.add(key)
-            suite.append(_fit_case(name, fit, comparison.for_fit(*key)))
+            suite.append(_fit_case(name, fit, comparison.for_fit(*key), times.get(key)))
         if rec.recommended is not None:
             suite.append(_recommended_case(rec))
     for key in _unseen_keys(comparison, seen):
@@ -83,16 +89,18 @@ def junit_xml(current: ResultsDoc, comparison: Comparison | None = None, *,
 
 
 def write_junit(path: str | os.PathLike, current: ResultsDoc,
-                comparison: Comparison | None = None, *, time: float | None = None) -> Path:
+                comparison: Comparison | None = None, *, time: float | None = None,
+                times: Mapping[tuple[str, int, str], float] | None = None) -> Path:
     """Write :func:`junit_xml` to ``path`` atomically (temporary file, then rename)."""
     p = Path(path)
-    write_atomic(p, junit_xml(current, comparison, time=time).encode("utf-8"), "JUnit file")
+    write_atomic(p, junit_xml(current, comparison, time=time, times=times).encode("utf-8"),
+                 "JUnit file")
     return p
 
 
 def _seconds(t: float) -> str:
     """A time as the schema's SUREFIRE_TIME takes it: digits and a decimal point."""
-    return f"{t:.3f}" if math.isfinite(t) and t > 0 else "0"
+    return f"{t:.6f}" if math.isfinite(t) and t > 0 else "0"  # a reading takes < 1 ms
 
 
 def _printable(root: ET.Element) -> None:
@@ -123,12 +131,14 @@ def _properties(suite: ET.Element, current: ResultsDoc, comparison: Comparison) 
             ET.SubElement(props, "property", {"name": key, "value": str(value)})
 
 
-def _case(record: str, name: str) -> ET.Element:
-    return ET.Element("testcase", {"classname": record, "name": name, "time": "0"})
+def _case(record: str, name: str, seconds: float | None = None) -> ET.Element:
+    return ET.Element("testcase", {"classname": record, "name": name,
+                                   "time": _seconds(seconds or 0.0)})
 
 
-def _fit_case(record: str, fit: FitDoc, findings: list[Finding]) -> ET.Element:
-    case = _case(record, f"event {fit.event} / {fit.label}")
+def _fit_case(record: str, fit: FitDoc, findings: list[Finding],
+              seconds: float | None = None) -> ET.Element:
+    case = _case(record, f"event {fit.event} / {fit.label}", seconds)
     for f in findings:
         _add_failure(case, f)
     status = fit.status

@@ -156,3 +156,28 @@ def criterion_bars(names: list[str], values: list[float], xlabel: str, title: st
     ax.set_title(title)
     ax.grid(axis="x", alpha=0.3)
     return png_of(fig, dpi)
+
+
+def loop_figure(t, units: dict[str, str], dpi: int) -> bytes:
+    """The tuned loop: output and setpoint above, the actuator below, on the model and on
+    the interval's worst case."""
+    fig, (ax_y, ax_u) = plt.subplots(2, 1, figsize=(8.0, 5.0), sharex=True,
+                                     gridspec_kw={"height_ratios": [3, 2]})
+    r = t.response
+    ax_y.plot(r.t, r.r, color="#999999", lw=1.0, ls="--", label="setpoint")
+    ax_y.plot(r.t, r.y, color="#4c72b0", lw=1.8, label="output, on the model")
+    ax_u.plot(r.t, r.u, color="#4c72b0", lw=1.5, label="input, on the model")
+    if t.worst_response is not None:
+        w = t.worst_response
+        ax_y.plot(w.t, w.y, color="#c44e52", lw=1.2, label="output, worst case in the interval")
+        ax_u.plot(w.t, w.u, color="#c44e52", lw=1.0, label="input, worst case")
+    yu, uu = units.get("output", ""), units.get("input", "")
+    ax_y.set_ylabel(f"output change [{yu}]" if yu else "output change")
+    ax_u.set_ylabel(f"input change [{uu}]" if uu else "input change")
+    ax_u.set_xlabel("time [s]")
+    ax_y.set_title("Tuned loop: setpoint step, then a load step at the plant input")
+    ax_y.legend(loc="lower right", fontsize=8)
+    ax_u.legend(loc="upper right", fontsize=8)
+    for ax in (ax_y, ax_u):
+        ax.grid(alpha=0.3)
+    return png_of(fig, dpi)

@@ -33,6 +33,12 @@ class RegressionSection:
     new: list[str] = field(default_factory=list)
     n_records: int = 0
     n_findings: int = 0
+    #: where the findings are: "on the recommended models" (the default scope) or "over
+    #: all methods" (``--gate all``)
+    where: str = "on the recommended models"
+    #: the other methods' changes beyond tolerance (information under the default scope)
+    other: Table | None = None
+    n_other: int = 0
 
 
 def _tolerance(f: Finding) -> str:
@@ -49,7 +55,7 @@ def _more(r: RecordRegression) -> str:
     rest = [f for f in r.on_model if f is not r.headline]
     parts = [", ".join(f"{f.as_row()['what']} {_change(f)}" for f in rest)] if rest else []
     if r.other_methods:
-        parts.append(f"{r.other_methods} other method(s)")
+        parts.append(f"{r.other_methods} other method(s) regressed too")
     return "; ".join(parts) or "-"
 
 
@@ -89,14 +95,25 @@ def regression_section(comparison: Comparison, anchors: Mapping[str, str] | None
     detail = Table(["record", "event", "method", "what", "baseline", "now", "change",
                     "tolerance"])
     detail.rows.extend(detail_row(f, comparison.recommended) for f in comparison.regressions)
+    other = Table(detail.columns)
+    other.rows.extend(detail_row(f, comparison.recommended) for f in comparison.other)
     return RegressionSection(headline, detail, [str(f) for f in comparison.new],
-                             len(records), len(comparison.regressions))
+                             len(records), len(comparison.regressions),
+                             where=_where(comparison), other=other,
+                             n_other=len(comparison.other))
 
 
-def mark_summary(summary: Table, comparison: Comparison, names: list[str]) -> Table:
+def _where(comparison: Comparison) -> str:
+    return ("over all methods" if comparison.settings.get("scope") == "all"
+            else "on the recommended models")
+
+
+def mark_summary(summary: Table, comparison: Comparison, names: list[str],
+                 failed: set[str] | frozenset[str] = frozenset()) -> Table:
     """The Summary table with a "vs baseline" column beside the verdict: ``regressed``,
-    ``ok``, or ``new`` for a record the baseline does not have. ``names`` are the
-    records of the summary's rows, in order."""
+    ``ok``, ``new`` for a record the baseline does not have, or ``failed`` for a record
+    that failed in this run without regressing (it failed in the baseline too): never
+    "ok" beside a failure. ``names`` are the records of the summary's rows, in order."""
     if "verdict" not in summary.columns or len(names) != len(summary.rows):
         return summary
     k = summary.columns.index("verdict") + 1
@@ -106,6 +123,7 @@ def mark_summary(summary: Table, comparison: Comparison, names: list[str]) -> Ta
     rows = []
     for name, row in zip(names, summary.rows, strict=True):
         mark = (Cell("regressed", "verdict") if name in regressed
+                else Cell("failed") if name in failed
                 else Cell("new") if name in new else Cell("ok"))
         rows.append(row[:k] + [mark] + row[k:])
     return Table(columns, rows, summary.highlight)
@@ -116,12 +134,14 @@ def gate_lines(comparison: Comparison, baseline: object, limit: int = TERMINAL_R
     """The terminal's lines: one for the gate, then one per regressed record (the headline
     on its recommended model), at most ``limit`` of them."""
     records = comparison.by_record()
+    other = (f"; {len(comparison.other)} change(s) of other methods, for information"
+             if comparison.other else "")
     if not records:
         return [f"no regression against {baseline} ({len(comparison.new)} new, "
-                f"{len(comparison.missing)} missing)"]
+                f"{len(comparison.missing)} missing{other})"]
     lines = [f"{len(records)} record(s) regressed against {baseline} "
-             f"({len(comparison.regressions)} finding(s) over all methods; the report "
-             "lists them)"]
+             f"({len(comparison.regressions)} finding(s) {_where(comparison)}{other}; the "
+             "report lists them)"]
     for r in records[:limit]:
         f = r.headline
         what = f.as_row()["what"]

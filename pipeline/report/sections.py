@@ -20,6 +20,13 @@ from ..schema import fit_label
 from ..validate import event_simulation, validation_simulation
 from . import plots
 from .consistency_plots import consistency_figure, static_map_figure
+from .controller import (
+    RULE_TITLES,
+    VERDICT_CLASS,
+    margins_table,
+    response_table,
+    settings_table,
+)
 from .tables import (
     consistency_table,
     events_table,
@@ -77,7 +84,8 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     ctx = {"name": res.name, "anchor": anchor, "ok": res.ok, "error": res.error,
            "source": rec.source if rec else res.source,
            "notes": list(rec.notes) if rec else [], "events": None, "ident": [],
-           "box": None, "ident_rest": None, "events_line": "", "record_flags": []}
+           "box": None, "ident_rest": None, "events_line": "", "record_flags": [],
+           "controller": None}
     if rec is None:
         return ctx, files
     tu = rec.units.get("time")
@@ -87,6 +95,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
                    "input": rec.input_name, "output": rec.output_name,
                    "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
     ctx["box"] = recommended_box(res)
+    ctx["controller"] = controller_context(res, mode, add, anchor, dpi)
     ctx["record_flags"] = [{"code": f.code, "message": f.message, "severity": f.severity}
                            for f in res.flags]
     ctx["events"] = events_table(res)
@@ -214,3 +223,37 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
     return plots.overlay(rec, slice(lo, hi), curves(),
                          f"Validation: measured vs {label}, simulated from each run's "
                          "operating point", events=res.events, roles=res.roles, dpi=dpi)
+
+
+def controller_context(res: RecordResult, mode: str, add, anchor: str, dpi: int
+                       ) -> dict | None:
+    """The Controller section's template context (None when nothing was tuned)."""
+    rt = res.tuning
+    if rt is None:
+        return None
+    out = {"rule": RULE_TITLES.get(rt.rule, rt.rule), "method": rt.method,
+           "ok": rt.ok, "reason": rt.reason, "figure": None}
+    if not rt.ok:
+        return out
+    t = rt.tuning
+    st = t.settings
+    red = st.reduced
+    out.update({
+        "kind": t.controller.kind, "verdict": t.verdict,
+        "verdict_class": VERDICT_CLASS[t.verdict], "reasons": list(t.reasons),
+        "action": (f"{t.action} acting (the process gain is "
+                   f"{'positive' if t.model.K > 0 else 'negative'})"),
+        "settings": settings_table(rt), "margins": margins_table(t),
+        "response": response_table(t, rt.units),
+        "percent": (f"gain {fmt(t.percent_gain, 4)} %/% (spans: input "
+                    f"{fmt(t.options.input_span)}, output {fmt(t.options.output_span)})"
+                    if t.percent_gain is not None else ""),
+        "tau_c": (f"tau_c = {fmt(st.tau_c, 4)} s" if st.tau_c else ""),
+        "reduced": (f"{red.kind.replace('_', ' ')}: {red.model().text()}"
+                    + (f" ({'; '.join(red.steps)})" if red.steps else "")),
+        "notes": list(t.notes),
+    })
+    if mode == "full" and t.response is not None:  # summary: one overview per record
+        out["figure"] = add(f"{anchor}_controller", "Tuned loop",
+                            plots.loop_figure(t, rt.units, dpi))
+    return out
