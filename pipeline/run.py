@@ -310,6 +310,23 @@ def _history_figures(doc: ResultsDoc, plan: _Plan, run_time: datetime, stages: S
                                   report.baseline_reference(plan.base_doc))
 
 
+def record_head_lines(res: RecordResult) -> list[str]:
+    """The head of one record's answer in plain lines, as ``pipeline identify`` prints it:
+    the recommended model with its verdict, its transfer function and scores, the
+    verdict's reasons and the controller's first line (or why there is no model)."""
+    box = report.recommended_box(res)
+    if box is None:
+        return [f"No model recommended for {res.name}: unreliable"] + [
+            f"  {f.code}: {f.message}" for f in res.flags]
+    lines = [f"Recommended model for {res.name}: {box['verdict']}",
+             f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
+             f"{box['scores']})"]
+    lines += [f"  {f['code']}: {f['message']}" for f in box["flags"]]
+    if res.tuning is not None:
+        lines += report.controller_lines(res.tuning)[:2]
+    return lines
+
+
 def _outcome(run: RunResult, comparison: Comparison | None, target: Path,
              baseline: Path | None) -> Outcome:
     """The exit code (all records failed, a regression, some failed, done) and the lines
@@ -319,6 +336,8 @@ def _outcome(run: RunResult, comparison: Comparison | None, target: Path,
     counts = ", ".join(f"{verdicts.count(v)} {v}" for v in ("ok", "warning", "unreliable"))
     messages = [f"{len(records) - len(run.failures)} of {len(records)} record(s) identified "
                 f"({counts}); reports in {target}/"]
+    if len(records) == 1 and records[0].ok:
+        messages[:0] = record_head_lines(records[0])
     if comparison is not None:
         messages.extend(report.gate_lines(comparison, baseline))
     code = (ExitCode.USER_ERROR if len(run.failures) == len(records)

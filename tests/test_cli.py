@@ -174,6 +174,13 @@ def test_thermal_flagship(tmp_path):
     assert 50 <= fo["params"]["T"] <= 70
     assert 0 < fo["metrics"]["mse_validation"] < 80
     assert np.isfinite(fo["metrics"]["fit_percent"])
+    # one record: its answer's head on stdout, as identify prints it (issue 29)
+    lines = r.stdout.splitlines()
+    rec_fit = rec["recommended"]
+    assert lines[0] == f"Recommended model for daisy-heating: {rec_fit['verdict']}"
+    assert lines[1].startswith("  G(s) = ") and f"({rec_fit['method']}, event 0;" in lines[1]
+    assert any(ln.startswith("Controller: PI by SIMC") for ln in lines)
+    assert lines[-1].startswith("1 of 1 record(s) identified")
 
 
 def test_out_keeps_files_it_did_not_write(tmp_path):

@@ -29,6 +29,7 @@ matrix when its poles are distinct, else one batched matrix exponential.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
@@ -234,7 +235,12 @@ def state_space(model: ProcessModel) -> tuple[np.ndarray, ...] | None:
     nd = model.num_den()
     if nd is None:
         return None
-    return tuple(np.atleast_2d(x) for x in signal.tf2ss(*nd))
+    with warnings.catch_warnings():
+        # a numerator whose leading coefficient is negligible (a lead-lag's zero near 0 s):
+        # scipy strips it, which is exact here, and says so on stderr for every simulation
+        warnings.simplefilter("ignore", signal.BadCoefficients)
+        abcd = signal.tf2ss(*nd)
+    return tuple(np.atleast_2d(x) for x in abcd)
 
 
 def step_groups(h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
