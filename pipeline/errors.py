@@ -16,6 +16,9 @@ class ExitCode(IntEnum):
     REGRESSION = 1  #: a model or its validation error drifted past a baseline's tolerance
     USER_ERROR = 2  #: bad input or config (one line on stderr), or every record failed
     SOME_FAILED = 3  #: a batch in which some records failed (the report lists them)
+    #: the reader of stdout went away (``pipeline ... | head -1``): 128 + SIGPIPE, what a
+    #: shell reports for a command SIGPIPE ended; never 1, which a gate reads as a regression
+    BROKEN_PIPE = 141
 
 
 class UserError(Exception):

@@ -404,3 +404,26 @@ def test_help_names_every_format_and_data_option():
             assert word in text, word
     for name, _, _ in DATA_OPTIONS:
         assert name in DataConfig.model_fields and flag(name) in text
+
+
+@pytest.mark.parametrize("args", [
+    ["methods"], ["schema"], ["datasets", "list"],
+    ["identify", "LOG", "--input", "u", "--output", "y", "--time", "time",
+     "--method", "first_order"],
+])
+def test_a_closed_stdout_exits_141_quietly(tmp_path, args):
+    """``pipeline ... | head -1``: the reader gone before the command writes. Exit code
+    141 (128 + SIGPIPE, as a shell reports it), never 1 (a regression to a gate), and no
+    traceback or 'Exception ignored' on stderr (issue 29)."""
+    import os
+
+    args = [str(_csv(tmp_path)) if a == "LOG" else a for a in args]
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # every write to stdout now fails with EPIPE
+    try:
+        r = subprocess.run([sys.executable, "-m", "pipeline", *args], stdout=write_end,
+                           stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write_end)
+    assert r.returncode == 141, r.stderr
+    assert r.stderr == "", r.stderr

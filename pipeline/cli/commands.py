@@ -29,12 +29,23 @@ baseline_app = typer.Typer(no_args_is_help=True, help="Regression baselines.")
 app.add_typer(datasets_app, name="datasets")
 app.add_typer(baseline_app, name="baseline")
 
-out = Console(highlight=False, soft_wrap=True)
-err = Console(stderr=True, highlight=False, soft_wrap=True)
+class _Console(Console):
+    """rich's console, but a closed stdout is a :class:`BrokenPipeError` for
+    :func:`handled` (rich's own handler exits 1, the regression code)."""
+
+    def on_broken_pipe(self) -> None:
+        self.quiet = True
+        raise BrokenPipeError
+
+
+out = _Console(highlight=False, soft_wrap=True)
+err = _Console(stderr=True, highlight=False, soft_wrap=True)
 
 
 def handled(command):
-    """The one error handler: a user error is one stderr line and exit code 2."""
+    """The one error handler: a user error is one stderr line and exit code 2; a closed
+    stdout (``| head -1``) ends the command quietly with :attr:`ExitCode.BROKEN_PIPE`
+    (click's own handler would exit 1, the regression code)."""
 
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
@@ -43,8 +54,26 @@ def handled(command):
         except UserError as exc:
             error_line(exc.message)
             raise typer.Exit(ExitCode.USER_ERROR) from None
+        except BrokenPipeError:
+            _stdout_to_devnull()
+            raise typer.Exit(ExitCode.BROKEN_PIPE) from None
 
     return wrapper
+
+
+def _stdout_to_devnull() -> None:
+    """Point stdout at /dev/null so that the interpreter's last flush of the unread output
+    does not raise again at exit (the Python documentation's recipe, ``signal`` module
+    notes on SIGPIPE)."""
+    import os
+
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout is not a file descriptor (a test runner)
+        pass
+    finally:
+        os.close(devnull)
 
 
 def error_line(message: str) -> None:
@@ -386,6 +415,7 @@ def segment(
 
 
 @app.command()
+@handled
 def methods() -> None:
     """List the identification methods: id, event kind, model structures, reference."""
     from .catalogue import catalogue  # metadata only: no scipy to start
@@ -401,6 +431,7 @@ def methods() -> None:
 
 
 @app.command()
+@handled
 def schema() -> None:
     """Print the JSON Schema of results.json."""
     from ..schema import json_schema_text
