@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich import box as rich_box
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
@@ -40,6 +41,38 @@ class _Console(Console):
 
 out = _Console(highlight=False, soft_wrap=True)
 err = _Console(stderr=True, highlight=False, soft_wrap=True)
+
+#: Off a terminal a table is as wide as its content, up to this many columns: complete
+#: lines that a pipe, grep or a CI log keeps whole (a CI log's 80 columns cut flag codes,
+#: field paths and URLs in the middle).
+PLAIN_WIDTH = 10_000
+
+
+def show(tab: Table) -> None:
+    """Print a table: on a terminal at its width, identifier columns kept whole
+    (:func:`keep_whole`); off a terminal (a pipe, a file, a CI log) with ASCII rules at
+    its natural width, so no cell wraps and every line is complete."""
+    if out.is_terminal:
+        out.print(tab)
+        return
+    tab.box = rich_box.ASCII
+    natural = out.measure(tab, options=out.options.update_width(PLAIN_WIDTH)).maximum
+    width = out.width  # print(width=...) is capped at the console's own width
+    out.width = max(width, min(natural, PLAIN_WIDTH))
+    try:
+        out.print(tab)
+    finally:
+        out.width = width
+
+
+def keep_whole(tab: Table, column: int, cells: list[str]) -> None:
+    """Identifiers never wrap: column ``column`` is at least as wide as the longest word
+    of ``cells`` (a method id, a flag code, a field path, a URL), the other columns
+    give way."""
+    words = [w for c in cells for w in str(c).split()]
+    if words:
+        tab.columns[column].min_width = max(tab.columns[column].min_width or 0,
+                                            max(len(w) for w in words))
 
 
 def handled(command):
@@ -119,6 +152,16 @@ def stoppable(command):
                 raise typer.Exit(exc.exit_code) from None
 
     return wrapper
+
+
+JsonOption = Annotated[bool, typer.Option("--json", help="print JSON to stdout")]
+
+
+def print_json(doc: object) -> None:
+    """``--json``: the command's rows as one JSON document on stdout."""
+    import json
+
+    sys.stdout.write(json.dumps(doc, indent=1, default=str) + "\n")
 
 
 # -- run ---------------------------------------------------------------------------------
@@ -265,6 +308,10 @@ def _rich(t, columns: list[str] | None = None, title: str = "") -> Table:
         tab.add_column(t.columns[k], no_wrap=t.columns[k] in ("method", "verdict"))
     if verdicts:
         tab.add_column("flags", overflow="fold")
+    for j, k in enumerate(keep):  # no word of a cell split, no number cut
+        keep_whole(tab, j, [row[k].text for row in t.rows])
+    if verdicts:
+        keep_whole(tab, len(keep), [row[verdicts[0]].note.replace(",", " ") for row in t.rows])
     for r, row in enumerate(t.rows):
         cells = []
         for k in keep:
@@ -293,7 +340,7 @@ def _print_ranking(res) -> None:
                   f"[{style}]{box['verdict']}[/]")
         out.print(f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
                   f"{box['scores']})", markup=False)
-        out.print(_rich(box["params"]))
+        show(_rich(box["params"]))
         for f in box["flags"]:
             out.print(f"  [{VERDICT_STYLE[f['severity']]}]{f['code']}[/] "
                       f"{escape(printable(f['message']))}")
@@ -314,7 +361,7 @@ def _print_ranking(res) -> None:
         crit = CRITERION_COLUMNS[criterion(res)]  # the one the recommendation decided by
         columns = ["rank", "method", "verdict", PARAMETERS_COLUMN, crit] + (
             ["fit % (valid.)"] if has_val else [])
-        out.print(_rich(table, columns,
+        show(_rich(table, columns,
                         title=escape(printable(f"{res.name}: event {i}, ranked by {crit}"))))
         for f in res.fits:
             if f.event == i and not f.ok:
@@ -411,23 +458,28 @@ def segment(
                     fmt(e.u_ss) if e.kind == "step" else f"A={fmt(e.area)}", fmt(e.y0),
                     fmt(e.y_ss), response_text(e, record),
                     "yes" if e.settled else "no (still moving)")
-    out.print(tab)
+    show(tab)
 
 
 @app.command()
 @handled
-def methods() -> None:
+def methods(as_json: JsonOption = False) -> None:
     """List the identification methods: id, event kind, model structures, reference."""
     from .catalogue import catalogue  # metadata only: no scipy to start
 
+    rows = catalogue()
+    if as_json:
+        print_json(rows)
+        return
     tab = Table(title="Methods")
-    tab.add_column("id", no_wrap=True)
-    for col in ("event", "structures", "title", "reference"):
+    for col in ("id", "event", "structures", "title", "reference"):
         tab.add_column(col)
-    for m in catalogue():
+    for m in rows:
         tab.add_row(m["id"], m["event"], ", ".join(m["structures"]), m["title"],
                     m["citation"])
-    out.print(tab)
+    keep_whole(tab, 0, [m["id"] for m in rows])
+    keep_whole(tab, 2, [" ".join(m["structures"]) for m in rows])
+    show(tab)
 
 
 @app.command()
@@ -441,30 +493,44 @@ def schema() -> None:
 
 @app.command()
 @handled
-def inspect(file: Annotated[Path, typer.Argument(help="an .mcap log")]) -> None:
+def inspect(file: Annotated[Path, typer.Argument(help="an .mcap log")],
+            as_json: JsonOption = False) -> None:
     """Topics, schemas, encodings, counts, time span and numeric fields of an MCAP log."""
     from ..io import format_inspect, inspect_mcap
 
-    out.print(format_inspect(inspect_mcap(file)))
+    info = inspect_mcap(file)
+    if as_json:
+        print_json(info)
+        return
+    tab = format_inspect(info)
+    for k, key in ((0, "topic"), (1, "schema")):
+        keep_whole(tab, k, [t[key] or "-" for t in info["topics"]])
+    keep_whole(tab, 5, [f for t in info["topics"] for f in t["fields"][:12]])
+    show(tab)
 
 
 # -- datasets ----------------------------------------------------------------------------
 
 @datasets_app.command("list")
 @handled
-def datasets_list() -> None:
+def datasets_list(as_json: JsonOption = False) -> None:
     """The registered public datasets."""
     from ..io import load_registry
 
     reg = load_registry()
+    if as_json:
+        print_json([{"name": ds.name, "title": ds.title, "format": ds.format,
+                     "input": ds.input, "output": ds.output, "url": ds.url}
+                    for ds in reg.values()])
+        return
     tab = Table(title="Datasets")
-    tab.add_column("name", no_wrap=True)
-    for col in ("title", "format", "signals"):
+    for col in ("name", "title", "format", "signals", "source"):
         tab.add_column(col)
-    tab.add_column("source", overflow="fold")
     for ds in reg.values():
         tab.add_row(ds.name, ds.title, ds.format, f"{ds.input} -> {ds.output}", ds.url)
-    out.print(tab)
+    keep_whole(tab, 0, [ds.name for ds in reg.values()])
+    keep_whole(tab, 4, [ds.url for ds in reg.values()])  # a URL must be copied whole
+    show(tab)
 
 
 @datasets_app.command("fetch")
