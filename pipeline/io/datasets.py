@@ -69,6 +69,23 @@ def cache_dir() -> Path:
     return Path(user_cache_dir("pipeline", appauthor=False)) / "datasets"
 
 
+def shown_source(source: str) -> str:
+    """A record's source as a report shows it: a fetched dataset as ``dataset NAME:
+    FILE`` (not the cache path of the machine that ran it), a file under the working
+    folder relative to it, anything else as given."""
+    path = Path(source)
+    for root, dataset in ((cache_dir(), True), (Path.cwd(), False)):
+        try:
+            rel = path.resolve().relative_to(root.resolve())
+        except (ValueError, OSError):
+            continue
+        if dataset and len(rel.parts) >= 2:
+            return f"dataset {rel.parts[0]}: {Path(*rel.parts[1:])}"
+        if not dataset:
+            return str(rel)
+    return source
+
+
 def load_registry(path: Path | None = None) -> dict[str, Dataset]:
     path = path or registry_path()
     try:

@@ -80,7 +80,8 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
         summary = mark_summary(summary, extras.comparison, names,
                                failed={r.name for r in results if not r.ok})
     ctx = {
-        "title": title, "doc": doc, "records": sections, "gate": gate,
+        "title": title, "doc": doc, "created": shown_time(doc.created), "records": sections,
+        "gate": gate,
         "summary": summary, "extras": extras, "history": history,
         "n_failed": sum(not r.ok for r in results), "flag_legend": FLAGS, "fold": FOLD_ROWS,
         "verdicts": {v: sum(record_verdict(r) == v for r in results)
@@ -89,6 +90,19 @@ def render(run: RunResult, doc: ResultsDoc, *, title: str, extras: Extras | None
     md = _environment("md").get_template("report.md.j2").render(**ctx)
     html = _environment("html").get_template("report.html.j2").render(**ctx)
     return md, html, files
+
+
+def shown_time(created: str) -> str:
+    """results.json's ISO-8601 time as a report shows it: to the second, with its zone
+    (``2026-12-06 13:21:18 UTC``); anything unreadable as given."""
+    from datetime import datetime
+
+    try:
+        when = datetime.fromisoformat(created)
+    except (TypeError, ValueError):
+        return str(created)
+    zone = when.strftime("%Z") if when.tzinfo is not None else ""
+    return when.strftime("%Y-%m-%d %H:%M:%S") + (f" {zone}" if zone else "")
 
 
 @functools.cache

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..grading import CRITERION_NAMES, criterion, ranked, static_map_note
+from ..io.datasets import shown_source
 from ..record import in_time_unit
 from ..results import RecordResult
 from ..schema import fit_label
@@ -82,7 +83,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     add = collector(files)
     rec = res.record
     ctx = {"name": res.name, "anchor": anchor, "ok": res.ok, "error": res.error,
-           "source": rec.source if rec else res.source,
+           "source": shown_source(rec.source if rec else res.source),
            "notes": list(rec.notes) if rec else [], "events": None, "ident": [],
            "box": None, "ident_rest": None, "events_line": "", "record_flags": [],
            "controller": None}
