@@ -183,13 +183,22 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
     """
     if out_dir is not None:
         report.check_target(out_dir)
+    t0 = time.perf_counter()
     record = load_record(path, data)
+    t1 = time.perf_counter()
+    log.info("%s: loaded %d samples in %.2f s; analysing", record.name, record.n_samples,
+             t1 - t0, extra={"stage": "load"})
     res = analysed(record, options)
     if res.error:
         raise UserError(res.error)
+    log.info("%s: %d event(s), %d fit(s) in %.2f s", record.name, len(res.events),
+             len(res.fits), time.perf_counter() - t1, extra={"stage": "analyse"})
     run = RunResult([res], config=f"identify {path}", created=created or now_iso())
     if out_dir is not None:
+        t2 = time.perf_counter()
         report.write_run(out_dir, run, run.to_doc(), title=f"Identification of {record.name}")
+        log.info("%s: reports written in %.2f s", record.name, time.perf_counter() - t2,
+                 extra={"stage": "report"})
     return run
 
 

@@ -120,3 +120,24 @@ def test_on_a_terminal_identifiers_are_never_split(command):
              else [ds.url for ds in load_registry().values()])
     for w in words:
         assert w in text, w
+
+
+def test_identify_quiet_prints_the_head_and_verbose_the_stages(tmp_path):
+    log = _csv(tmp_path)
+    args = [str(log), "--input", "u", "--output", "y", "--time", "time"]
+    env = {**os.environ, "COLUMNS": "80"}
+    run = [sys.executable, "-m", "pipeline", "identify", *args]
+    q = subprocess.run([*run, "-q"], capture_output=True, text=True, env=env, timeout=300)
+    v = subprocess.run([*run, "-v"], capture_output=True, text=True, env=env, timeout=300)
+    doc = json.loads(_pipe("identify", *args, "--json"))
+    rec = doc["records"][0]["recommended"]
+    assert q.returncode == v.returncode == 0, q.stderr + v.stderr
+    lines = q.stdout.splitlines()
+    assert lines[0] == f"Recommended model for log: {rec['verdict']}"
+    assert f"({rec['method']}, event 0;" in lines[1]
+    assert "ranked by" not in q.stdout and q.stderr == ""
+    assert "ranked by" in v.stdout
+    assert "pipeline: log: loaded 2138 samples" in v.stderr
+    assert "fit(s) in" in v.stderr
+    both = subprocess.run([*run, "-q", "-v"], capture_output=True, text=True, env=env)
+    assert both.returncode == 2 and both.stderr.count("\n") == 1

@@ -272,10 +272,19 @@ def identify(
     = False,
     out_dir: Annotated[Path | None, typer.Option("--out", help="also write reports here")]
     = None,
+    quiet: Annotated[bool, typer.Option(
+        "--quiet", "-q", help="print the recommended model's head lines only")] = False,
+    verbose: Annotated[bool, typer.Option(
+        "--verbose", "-v", help="the stages and library warnings on stderr")] = False,
 ) -> None:
     """Identify models from one log and print them ranked (or as JSON)."""
     from ..analysis import AnalysisOptions
-    from ..run import identify_file, identify_json
+    from ..log import configure
+    from ..run import identify_file, identify_json, record_head_lines
+
+    if quiet and verbose:
+        raise UserError("--quiet and --verbose: give one of them, not both")
+    configure("quiet" if quiet else "verbose" if verbose else "normal")
 
     if ctx.args:
         raise UserError(f"unexpected argument {ctx.args[0]!r}: give several methods or events "
@@ -287,6 +296,10 @@ def identify(
         sys.stdout.write(identify_json(file, data, options, out_dir=out_dir))
         return
     run_ = identify_file(file, data, options, out_dir=out_dir)
+    if quiet:
+        for line in record_head_lines(run_.records[0]):
+            out.print(printable(line), markup=False)
+        return
     _print_ranking(run_.records[0])
     if out_dir is not None:
         out.print(f"reports written to {out_dir}/ (report.html, report.md, results.json)")
