@@ -167,8 +167,11 @@ class RunConfig(_Strict):
 
         unknown = [m for m in v if m not in REGISTRY]
         if unknown:
+            from .suggest import did_you_mean
+
             raise ValueError(
-                f"unknown method {unknown[0]!r}; expected 'all' or ids from: "
+                f"unknown method {unknown[0]!r}{did_you_mean(unknown[0], REGISTRY)}; "
+                "expected 'all' or ids from: "
                 + ", ".join(REGISTRY)
             )
         return v
@@ -224,11 +227,43 @@ def _describe(exc: ValidationError) -> str:
     loc = _clean_loc(err["loc"])
     kind = err["type"]
     if kind == "extra_forbidden":
-        return f"unknown key '{loc}'; check its spelling"
+        from .suggest import did_you_mean
+
+        keys = _keys_at(err["loc"][:-1])
+        hint = did_you_mean(str(err["loc"][-1]), keys) if keys else ""
+        return f"unknown key '{loc}'" + (hint or "; check its spelling") + (
+            f" (the keys there: {', '.join(keys)})" if keys and not hint else "")
     if kind == "missing":
         return f"missing key '{loc}'"
     msg = err["msg"].removeprefix("Value error, ")
     return f"key '{loc}': {msg} (got {quoted(err.get('input'))})"
+
+
+def _keys_at(loc: tuple) -> list[str]:
+    """The keys a config mapping at ``loc`` (pydantic's location of its parent) takes:
+    the fields of the section's model, found by walking :class:`RunConfig`'s fields; an
+    empty list where the walk does not reach a model (a list item of a union)."""
+    import typing
+
+    from pydantic import BaseModel
+
+    model: type[BaseModel] | None = RunConfig
+    for part in loc:
+        if model is None or isinstance(part, int):
+            continue
+        field_ = model.model_fields.get(str(part))
+        if field_ is None:
+            return []
+        found = None
+        for arg in (field_.annotation, *typing.get_args(field_.annotation)):
+            for cand in (arg, *typing.get_args(arg)):
+                if isinstance(cand, type) and issubclass(cand, BaseModel):
+                    found = cand
+        model = found
+    if model is None:
+        return []
+    return [f.alias or name for name, f in model.model_fields.items()
+            if not name.startswith("_") and name not in ("base_dir", "source")]
 
 
 def _expanded_size(raw: object, limit: int) -> int:

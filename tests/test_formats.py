@@ -110,11 +110,14 @@ def test_a_key_of_another_format_is_one_line(name, key):
      "c.yaml: key 'data.stamp' does not apply to dat files (it is an option of: mcap)"),
     # a key no format takes: unknown, whatever the format
     ({"path": "a.csv", "input": "u", "output": "y", "stamp_field": "x"},
-     "c.yaml: unknown key 'data.stamp_field'; check its spelling"),
+     "c.yaml: unknown key 'data.stamp_field' (did you mean 'stamp'?)"),
     ({"path": "logs/", "input": "u", "output": "y", "foo": 1},
-     "c.yaml: unknown key 'data.foo'; check its spelling"),
+     "c.yaml: unknown key 'data.foo'; check its spelling (the keys there: dataset, path, "
+     "paths, format, input, output, initial_input, units, trailing_lines, columns, header, "
+     "duplicates, fill_gaps, long_gaps, unwrap, time, sample_time, time_unit, time_zone, "
+     "time_format, delimiter, decimal, sheet, stamp, max_gap)"),
     ({"dataset": "daisy-heating", "colums": ["t", "u", "y"]},
-     "c.yaml: unknown key 'data.colums'; check its spelling"),
+     "c.yaml: unknown key 'data.colums' (did you mean 'columns'?)"),
     # a format key's value is checked where the key is declared
     ({"path": "logs/", "input": "u", "output": "y", "max_gap": -1},
      "c.yaml: key 'data.max_gap': Input should be greater than 0 (got -1)"),

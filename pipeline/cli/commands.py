@@ -244,7 +244,10 @@ def _methods_arg(values: list[str] | None) -> tuple[str, ...] | str:
     ids = _list_arg(values)
     unknown = [m for m in ids if m != "all" and m not in REGISTRY]
     if unknown:
-        raise UserError(f"--method {unknown[0]!r}: unknown; see `pipeline methods`")
+        from ..suggest import did_you_mean
+
+        raise UserError(f"--method {unknown[0]!r}: unknown{did_you_mean(unknown[0], REGISTRY)}"
+                        "; see `pipeline methods`")
     return "all" if not ids or "all" in ids else tuple(ids)
 
 

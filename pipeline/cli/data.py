@@ -114,6 +114,9 @@ def data_config(file: Path, given: dict):
 
     from ..io import DataConfig, does_not_apply, format_of, options_for
 
+    if Path(file).is_dir():
+        raise UserError(f"{file}: is a folder; expected a log file (a folder of logs goes "
+                        "in a config's data.path)")
     fmt = format_of(file, given["format"])
     keys = {k: v for k, v in given.items() if v is not None and k not in _COMMON}
     for key in keys:

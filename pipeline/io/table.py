@@ -23,6 +23,7 @@ from pydantic import Field
 
 from ..errors import UserError
 from ..record import Record, make_record
+from ..suggest import did_you_mean
 from .base import DataSection, Places, Strict
 from .quirks import QuirkOptions, Rows, check_order, fill_gaps, merge_duplicates, unwrap_output
 from .timebase import TimeOptions, display_unit, time_base
@@ -120,7 +121,8 @@ def resolve(table: Table, ref: str | int, key: str) -> int:
     reason = (table.left_out or {}).get(ref)
     if reason:
         raise _error(str(table.path), f"{table.noun} {ref!r} {reason}")
-    raise _error(str(table.path), f"no {table.noun} {ref!r}; the {table.noun}s are "
+    hint = did_you_mean(ref, [*names, *(split_unit(n)[0] for n in names)])
+    raise _error(str(table.path), f"no {table.noun} {ref!r}{hint}; the {table.noun}s are "
                  f"{_listing(table)}")
 
 
