@@ -41,6 +41,19 @@ class Record:
     def n_samples(self) -> int:
         return int(self.t.size)
 
+    def sampling(self) -> tuple[float | None, float | None]:
+        """``(median interval, jitter)`` of the time stamps, in seconds and as the
+        intervals' standard deviation over their median: ``(sample_time, 0)`` on a
+        uniform grid; what an irregular grid (a logger's clock) has instead of a sample
+        time (results.json ``median_interval``, ``interval_jitter``)."""
+        if self.sample_time is not None:
+            return self.sample_time, 0.0
+        if self.t.size < 2:
+            return None, None
+        dt = np.diff(self.t)
+        med = float(np.median(dt))
+        return med, (float(np.std(dt)) / med if med > 0 else None)
+
 
 #: The time units a log may be in: name -> (numerator, denominator) of one unit in seconds,
 #: so that ms -> s divides by 1000 (exactly rounded) instead of multiplying by 0.001.

@@ -144,11 +144,13 @@ class RecordResult:
     def to_doc(self) -> RecordDoc:
         """This record's results.json entry."""
         rec = self.record
+        median, jitter = rec.sampling() if rec else (None, None)
         return RecordDoc(
             name=self.name, source=rec.source if rec else self.source,
             status="ok" if self.ok else "failed", error=self.error,
             n_samples=rec.n_samples if rec else 0,
             sample_time=rec.sample_time if rec else None,
+            median_interval=median, interval_jitter=jitter,
             units=dict(rec.units) if rec else {}, start=rec.start if rec else None,
             notes=list(rec.notes) if rec else [],
             events=[event_doc(e, self.roles.get(e.index, "unused")) for e in self.events],

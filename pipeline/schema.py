@@ -336,7 +336,12 @@ class RecordDoc(_Doc):
     status: Literal["ok", "failed"]
     error: str | None = None
     n_samples: int = 0
-    sample_time: float | None = None
+    sample_time: float | None = Field(None, description="the grid's interval (s) when it "
+                                      "is uniform; null on an irregular grid")
+    median_interval: float | None = Field(None, description="the median of the time "
+                                          "stamps' intervals (s), uniform grid or not")
+    interval_jitter: float | None = Field(None, description="the intervals' standard "
+                                          "deviation over their median (0: uniform)")
     units: dict[str, str] = Field(default_factory=dict)
     start: str | None = Field(None, description="the absolute time of the first sample "
                               "(ISO-8601 with offset), when the log has date-times")

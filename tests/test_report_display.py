@@ -3,7 +3,7 @@ second with its zone, a fetched dataset by name, not the cache path of the machi
 
 from __future__ import annotations
 
-from pipeline.io.datasets import CACHE_ENV, shown_source
+from pipeline.io import shown_source
 from pipeline.report.build import shown_time
 
 
@@ -15,7 +15,7 @@ def test_time_to_the_second_with_its_zone():
 
 def test_a_dataset_by_name_a_working_file_relative(tmp_path, monkeypatch):
     cache = tmp_path / "cache"
-    monkeypatch.setenv(CACHE_ENV, str(cache))
+    monkeypatch.setenv("PIPELINE_DATASETS_CACHE", str(cache))
     assert (shown_source(str(cache / "daisy-heating" / "heating_system.dat"))
             == "dataset daisy-heating: heating_system.dat")
     work = tmp_path / "work"
@@ -25,3 +25,21 @@ def test_a_dataset_by_name_a_working_file_relative(tmp_path, monkeypatch):
     elsewhere = str(tmp_path / "other" / "b.csv")
     assert shown_source(elsewhere) == elsewhere
     assert shown_source("identify x") == "identify x"  # not a path: as given
+
+
+def test_an_irregular_grid_has_a_median_interval_and_a_jitter():
+    import numpy as np
+
+    from pipeline.record import make_record
+
+    rng = np.random.default_rng(3)
+    n = 2001
+    u = np.where(np.arange(n) > 500, 1.0, 0.0)
+    regular = make_record(np.arange(n) * 0.5, u, u.copy(), name="r", source="r")
+    assert regular.sampling() == (0.5, 0.0)
+    dt = 0.5 * (1 + 0.04 * rng.standard_normal(n - 1))  # a logger's clock: 4 % jitter
+    t = np.concatenate([[0.0], np.cumsum(dt)])
+    rec = make_record(t, u, u.copy(), name="j", source="j")
+    assert rec.sample_time is None
+    median, jitter = rec.sampling()
+    assert abs(median - 0.5) < 0.005 and abs(jitter - 0.04) < 0.004

@@ -18,7 +18,7 @@ from pathlib import Path
 from ..errors import UserError
 from ..record import Record
 from .base import DataSection, Format, SignalConfig
-from .datasets import dataset, fetch, load_registry
+from .datasets import dataset, fetch, load_registry, shown_source
 from .mcap import format_inspect, inspect_mcap
 from .options import DataConfig, check_file, check_section, does_not_apply, options_for
 from .paths import files_named
@@ -43,5 +43,5 @@ def load_record(path: Path, data: DataSection, name: str | None = None) -> Recor
 
 __all__ = ["FORMATS", "SUFFIXES", "DataConfig", "Format", "Record", "SignalConfig", "check_file",
            "check_section", "does_not_apply", "fetch", "files_named", "find_format",
-           "dataset", "format_inspect", "format_of", "inspect_mcap", "load_record",
+           "dataset", "format_inspect", "format_of", "inspect_mcap", "load_record", "shown_source",
            "load_registry", "options_for"]

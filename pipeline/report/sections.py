@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..grading import CRITERION_NAMES, criterion, ranked, static_map_note
-from ..io.datasets import shown_source
+from ..io import shown_source
 from ..record import in_time_unit
 from ..results import RecordResult
 from ..schema import fit_label
@@ -90,9 +90,12 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     if rec is None:
         return ctx, files
     tu = rec.units.get("time")
+    median, jitter = rec.sampling()
     ctx["meta"] = {"samples": rec.n_samples,
                    "sample_time": (f"{fmt(in_time_unit(rec.sample_time, tu))} {tu or 's'}"
-                                   if rec.sample_time else "irregular"),
+                                   if rec.sample_time else "irregular" if median is None else
+                                   f"irregular (median {fmt(in_time_unit(median, tu))} "
+                                   f"{tu or 's'}, jitter {100 * (jitter or 0):.2g} %)"),
                    "input": rec.input_name, "output": rec.output_name,
                    "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
     ctx["box"] = recommended_box(res)
