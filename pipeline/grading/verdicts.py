@@ -32,6 +32,7 @@ from ..results import RecordResult
 from .closed_loop import closed_loop_flag
 from .consistency import gain_flags
 from .determinacy import response_band, response_change
+from .oscillation import oscillation_unmodelled
 
 #: Every flag code, with what it means (the report's legend and the docs read this).
 FLAGS: dict[str, str] = {
@@ -63,6 +64,9 @@ FLAGS: dict[str, str] = {
                             "a step just before the first row (declare initial_input)",
     "check_failed": "a check could not be made on this model (a numerical failure): the "
                     "verdict lacks it",
+    "oscillation_unmodelled": "the step's response overshoots and comes back (an "
+                              "oscillation above the noise) and the model cannot: it misses "
+                              "a lightly damped mode",
 }
 
 SEVERITY_ORDER = VERDICTS  # a flag's severity forces at least that verdict
@@ -208,7 +212,8 @@ def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
     flags = [_checked(check, fit, ev, rec) for check in checks]
     flags += [_checked(_misfit, fit, ev, rec, floor),
               _checked(_validation_misfit, fit, result, floor),
-              _checked(_integrating_evidence, fit, result)]
+              _checked(_integrating_evidence, fit, result),
+              _checked(oscillation_unmodelled, fit, result)]
     return [f for f in flags if f is not None]
 
 
@@ -536,3 +541,4 @@ def _undershoot_unmodelled(fit: Fit, ev: Event, rec: Record) -> Flag | None:
                 f"{fit.model.structure.replace('_', ' ')} model cannot: its residuals are "
                 "structure, not noise (an inverse response needs a zero, Tz < 0).",
                 {"undershoot": u["depth"], "t": u["t"]})
+

@@ -51,7 +51,9 @@ class RecordTuning:
 
 #: Flags under which a model's tuning is never called robust (the model may not be the
 #: open-loop plant).
-UNTRUSTED_FLAGS = ("closed_loop_suspected",)
+#: a loop read as a plant, or a lightly damped mode the model misses: the robust check
+#: over the model's intervals says nothing of the true loop
+UNTRUSTED_FLAGS = ("closed_loop_suspected", "oscillation_unmodelled")
 
 
 def model_trust(verdict: str, flag_codes, warned_codes) -> tuple[bool, str]:
