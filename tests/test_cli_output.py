@@ -104,17 +104,17 @@ def test_on_a_terminal_identifiers_are_never_split(command):
     stays on one line."""
     from rich.console import Console
 
-    from pipeline.cli import commands
+    from pipeline.cli import commands, output
 
     console = Console(width=80, force_terminal=True, color_system=None, highlight=False,
                       soft_wrap=True, record=True)
-    real = commands.out
-    commands.out = console
+    real = output.out
+    output.out = console
     try:
         with console.capture() as cap:
             (commands.methods if command == ["methods"] else commands.datasets_list)()
     finally:
-        commands.out = real
+        output.out = real
     text = cap.get()
     words = ([m["id"] for m in catalogue()] if command == ["methods"]
              else [ds.url for ds in load_registry().values()])

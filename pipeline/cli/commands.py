@@ -13,8 +13,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich import box as rich_box
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
@@ -22,6 +20,17 @@ from ..errors import ExitCode, UserError
 from ..quoting import printable
 from ..version import __version__
 from .data import with_data_options
+from .output import (
+    JsonOption,
+    err,
+    error_line,
+    keep_whole,
+    out,
+    print_json,
+    print_ranking,
+    show,
+    stdout_to_devnull,
+)
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Batch system identification from step and impulse tests.")
@@ -29,50 +38,6 @@ datasets_app = typer.Typer(no_args_is_help=True, help="The public dataset regist
 baseline_app = typer.Typer(no_args_is_help=True, help="Regression baselines.")
 app.add_typer(datasets_app, name="datasets")
 app.add_typer(baseline_app, name="baseline")
-
-class _Console(Console):
-    """rich's console, but a closed stdout is a :class:`BrokenPipeError` for
-    :func:`handled` (rich's own handler exits 1, the regression code)."""
-
-    def on_broken_pipe(self) -> None:
-        self.quiet = True
-        raise BrokenPipeError
-
-
-out = _Console(highlight=False, soft_wrap=True)
-err = _Console(stderr=True, highlight=False, soft_wrap=True)
-
-#: Off a terminal a table is as wide as its content, up to this many columns: complete
-#: lines that a pipe, grep or a CI log keeps whole (a CI log's 80 columns cut flag codes,
-#: field paths and URLs in the middle).
-PLAIN_WIDTH = 10_000
-
-
-def show(tab: Table) -> None:
-    """Print a table: on a terminal at its width, identifier columns kept whole
-    (:func:`keep_whole`); off a terminal (a pipe, a file, a CI log) with ASCII rules at
-    its natural width, so no cell wraps and every line is complete."""
-    if out.is_terminal:
-        out.print(tab)
-        return
-    tab.box = rich_box.ASCII
-    natural = out.measure(tab, options=out.options.update_width(PLAIN_WIDTH)).maximum
-    width = out.width  # print(width=...) is capped at the console's own width
-    out.width = max(width, min(natural, PLAIN_WIDTH))
-    try:
-        out.print(tab)
-    finally:
-        out.width = width
-
-
-def keep_whole(tab: Table, column: int, cells: list[str]) -> None:
-    """Identifiers never wrap: column ``column`` is at least as wide as the longest word
-    of ``cells`` (a method id, a flag code, a field path, a URL), the other columns
-    give way."""
-    words = [w for c in cells for w in str(c).split()]
-    if words:
-        tab.columns[column].min_width = max(tab.columns[column].min_width or 0,
-                                            max(len(w) for w in words))
 
 
 def handled(command):
@@ -88,31 +53,11 @@ def handled(command):
             error_line(exc.message)
             raise typer.Exit(ExitCode.USER_ERROR) from None
         except BrokenPipeError:
-            _stdout_to_devnull()
+            stdout_to_devnull()
             raise typer.Exit(ExitCode.BROKEN_PIPE) from None
 
     return wrapper
 
-
-def _stdout_to_devnull() -> None:
-    """Point stdout at /dev/null so that the interpreter's last flush of the unread output
-    does not raise again at exit (the Python documentation's recipe, ``signal`` module
-    notes on SIGPIPE)."""
-    import os
-
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):  # stdout is not a file descriptor (a test runner)
-        pass
-    finally:
-        os.close(devnull)
-
-
-def error_line(message: str) -> None:
-    """One ``error: ...`` line on stderr, control characters from file and topic names
-    shown as escapes (a terminal escape sequence in a name reaches the terminal inert)."""
-    err.print(f"error: {printable(message)}", markup=False)
 
 
 def _version(value: bool) -> None:
@@ -152,16 +97,6 @@ def stoppable(command):
                 raise typer.Exit(exc.exit_code) from None
 
     return wrapper
-
-
-JsonOption = Annotated[bool, typer.Option("--json", help="print JSON to stdout")]
-
-
-def print_json(doc: object) -> None:
-    """``--json``: the command's rows as one JSON document on stdout."""
-    import json
-
-    sys.stdout.write(json.dumps(doc, indent=1, default=str) + "\n")
 
 
 # -- run ---------------------------------------------------------------------------------
@@ -303,85 +238,10 @@ def identify(
         for line in record_head_lines(run_.records[0]):
             out.print(printable(line), markup=False)
         return
-    _print_ranking(run_.records[0])
+    print_ranking(run_.records[0])
     if out_dir is not None:
         out.print(f"reports written to {out_dir}/ (report.html, report.md, results.json)")
 
-
-VERDICT_STYLE = {"ok": "bold green", "info": "dim", "warning": "bold yellow",
-                 "unreliable": "bold red",
-                 "failed": "bold red"}
-
-
-def _rich(t, columns: list[str] | None = None, title: str = "") -> Table:
-    """A report table (:class:`pipeline.report.tables.Table`) for the terminal, with only
-    ``columns`` (by name) when given; verdicts in colour, the recommended row bold."""
-    keep = [k for k, c in enumerate(t.columns) if columns is None or c in columns]
-    verdicts = [k for k in keep if t.rows and t.rows[0][k].kind == "verdict"]
-    tab = Table(title=title or None,
-                caption="* the recommended model" if t.highlight is not None else None)
-    for k in keep:
-        tab.add_column(t.columns[k], no_wrap=t.columns[k] in ("method", "verdict"))
-    if verdicts:
-        tab.add_column("flags", overflow="fold")
-    for j, k in enumerate(keep):  # no word of a cell split, no number cut
-        keep_whole(tab, j, [row[k].text for row in t.rows])
-    if verdicts:
-        keep_whole(tab, len(keep), [row[verdicts[0]].note.replace(",", " ") for row in t.rows])
-    for r, row in enumerate(t.rows):
-        cells = []
-        for k in keep:
-            c = row[k]
-            style = VERDICT_STYLE.get(c.text) if c.kind == "verdict" else None
-            text = escape(printable(c.text))
-            if r == t.highlight and k == keep[0]:
-                text += " *"
-            cells.append(f"[{style}]{text}[/]" if style else text)
-        if verdicts:
-            cells.append(escape(printable(row[verdicts[0]].note)).replace(", ", " "))
-        tab.add_row(*cells, style="bold" if r == t.highlight else None)
-    return tab
-
-
-def _print_ranking(res) -> None:
-    """The recommended model first (units, intervals, verdict, flags), then each event's
-    ranking with verdicts: the same tables as the report."""
-    from ..grading import CRITERION_COLUMNS, criterion
-    from ..report import PARAMETERS_COLUMN, ranking_table, recommended_box
-
-    box = recommended_box(res)
-    if box is not None:
-        style = VERDICT_STYLE.get(box["verdict"], "bold")
-        out.print(f"Recommended model for {escape(printable(res.name))}: "
-                  f"[{style}]{box['verdict']}[/]")
-        out.print(f"  G(s) = {box['tf']}   ({box['method']}, event {box['event']}; "
-                  f"{box['scores']})", markup=False)
-        show(_rich(box["params"]))
-        for f in box["flags"]:
-            out.print(f"  [{VERDICT_STYLE[f['severity']]}]{f['code']}[/] "
-                      f"{escape(printable(f['message']))}")
-        out.print(f"  why: {box['reason']}", markup=False)
-        if res.tuning is not None:
-            from ..report import controller_lines
-
-            for line in controller_lines(res.tuning):
-                out.print(printable(line), markup=False)
-    else:
-        out.print(f"No model recommended for {escape(printable(res.name))}: "
-                  f"[{VERDICT_STYLE['unreliable']}]unreliable[/]")
-        for f in res.flags:
-            out.print(f"  [{VERDICT_STYLE[f.severity]}]{f.code}[/] {escape(printable(f.message))}")
-    has_val = bool(res.validation_events)
-    for i in res.identification_events:
-        table = ranking_table(res, i)
-        crit = CRITERION_COLUMNS[criterion(res)]  # the one the recommendation decided by
-        columns = ["rank", "method", "verdict", PARAMETERS_COLUMN, crit] + (
-            ["fit % (valid.)"] if has_val else [])
-        show(_rich(table, columns,
-                        title=escape(printable(f"{res.name}: event {i}, ranked by {crit}"))))
-        for f in res.fits:
-            if f.event == i and not f.ok:
-                out.print(printable(f"  {f.method}: {f.status}: {f.reason}"), markup=False)
 
 
 @app.command(context_settings={"allow_extra_args": True})
