@@ -123,6 +123,9 @@ def run(
     tol: Annotated[list[str] | None, typer.Option(
         help="per-parameter tolerance, e.g. --tol T=0.1 or --tol Kc=0.2 (repeatable)")]
     = None,
+    check: Annotated[bool, typer.Option(
+        "--check", help="check the config, its files and their columns; identify nothing")]
+    = False,
     gate: Annotated[str, typer.Option(
         metavar="recommended|all",
         help="what fails the gate: the recommended model (its parameters, tuning, verdict, "
@@ -140,6 +143,14 @@ def run(
     SIGTERM or Ctrl-C stops the run cleanly: the workers end, nothing half-written is
     left, an earlier report in --out is kept; the exit code is 143 (SIGTERM) or 130.
     """
+    if check:
+        from ..check import check_config
+
+        code, rows = check_config(config)
+        for r in rows:
+            (error_line if r.error else out.print)(r.line(), **({} if r.error else
+                                                            {"markup": False}))
+        raise typer.Exit(code)
     from .run_command import run_command
 
     outcome = run_command(config, out_dir, workers, executor, scheduler, baseline, junit,
@@ -360,8 +371,15 @@ def methods(as_json: JsonOption = False) -> None:
 
 @app.command()
 @handled
-def schema() -> None:
-    """Print the JSON Schema of results.json."""
+def schema(config: Annotated[bool, typer.Option(
+        "--config", help="the run config's schema instead (for an editor's YAML support)")]
+        = False) -> None:
+    """Print the JSON Schema of results.json (or, with --config, of a run config)."""
+    if config:
+        from ..check import config_schema_text
+
+        sys.stdout.write(config_schema_text())
+        return
     from ..schema import json_schema_text
 
     sys.stdout.write(json_schema_text())
