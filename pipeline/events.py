@@ -19,6 +19,10 @@ import numpy as np
 
 from .schema import EventKind, Response
 
+#: A response whose smoothed excursion passes this many noise sigmas moved (the rise's
+#: own test uses 3 sigmas on the final change; a peak, one of many samples, needs more).
+MOVED_SIGMAS = 10.0
+
 
 @dataclass(frozen=True)
 class Event:
@@ -105,3 +109,31 @@ class EventData:
         """Time since ``t0`` and output deviation ``y - y0`` from ``t0`` on."""
         i = self.i0
         return self.t[i:] - self.t0, self.y[i:] - self.y0
+
+    def excursion(self) -> float:
+        """The largest deviation ``|y - y0|`` after ``t0`` of the output's 5-sample running
+        median (output units; a glitch of one or two samples is no excursion), or 0 when
+        it is within three times the same reading over the samples before ``t0`` (a
+        coloured noise wanders as far before the step as after it)."""
+        from scipy.ndimage import median_filter
+
+        r = median_filter(self.y - self.y0, size=5, mode="nearest")
+        after, before = r[self.i0:], r[:self.i0]
+        if not after.size:
+            return 0.0
+        peak = float(np.max(np.abs(after)))
+        if before.size >= 10 and peak <= 3.0 * float(np.max(np.abs(before))):
+            return 0.0
+        return peak
+
+    def unchanged_reason(self) -> str:
+        """Why a step shows no final change to read (``|y_ss - y0| <= 3 sigma``), true
+        to what the output did: it did not move, or it moved and came back (a response
+        with zero static gain, which no structure of the table represents: issue 27
+        item 6)."""
+        peak = self.excursion()
+        if peak > MOVED_SIGMAS * self.noise:
+            return (f"the output moved (by up to {peak:.3g}, {peak / self.noise:.0f} noise "
+                    f"sigmas) and came back: no final change to read (|y_ss - y0| <= 3 "
+                    f"sigma), a response with zero static gain")
+        return "the output did not change measurably (|y_ss - y0| <= 3 sigma)"

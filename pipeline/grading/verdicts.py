@@ -23,7 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..events import Event
+from ..events import MOVED_SIGMAS, Event, EventData
 from ..fit import VERDICTS, Fit, Flag
 from ..models import PARAMETERS
 from ..record import Record, in_time_unit
@@ -67,6 +67,8 @@ FLAGS: dict[str, str] = {
     "oscillation_unmodelled": "the step's response overshoots and comes back (an "
                               "oscillation above the noise) and the model cannot: it misses "
                               "a lightly damped mode",
+    "zero_static_gain": "a step's response moves well above the noise and comes back to "
+                        "where it started: no structure of the table represents it",
 }
 
 SEVERITY_ORDER = VERDICTS  # a flag's severity forces at least that verdict
@@ -183,12 +185,38 @@ def _starts_mid_transient(result: RecordResult) -> Flag | None:
                 {"drift": drift, "input": u0})
 
 
+def _zero_static_gain(result: RecordResult) -> Flag | None:
+    """A step whose output moves far above the noise and comes back to where it started
+    (no final change, :meth:`pipeline.events.EventData.excursion`): an acceleration, a
+    derivative or a washout, which no structure in the table (every one has a nonzero
+    static gain or integrates) represents (issue 27 item 6). The largest such event."""
+    rec, found = result.record, []
+    for ev in result.events:
+        if ev.kind != "step" or abs(ev.y_ss - ev.y0) > 3 * ev.noise or ev.noise <= 0:
+            continue
+        peak = EventData.from_event(rec, ev).excursion()
+        if peak > MOVED_SIGMAS * ev.noise:
+            found.append((peak / ev.noise, peak, ev))
+    if not found:
+        return None
+    ratio, peak, ev = max(found, key=lambda f: f[0])
+    return Flag("zero_static_gain", f"After the step at t = {_t(ev.t0, rec)} the output moves "
+                f"by up to {peak:.3g}{_unit_of_output(rec)} ({ratio:.0f} times the noise) "
+                f"and comes back to where it started (a final change of "
+                f"{ev.y_ss - ev.y0:.3g}): a response with zero static gain (an acceleration, "
+                "a derivative, a washout), which no structure in the table represents; "
+                + (f"{len(found)} step(s) do so. " if len(found) > 1 else "")
+                + "Log the quantity it is the rate of, or identify it elsewhere.",
+                {"event": ev.index, "excursion": peak, "events": len(found)})
+
+
 def record_flags(result: RecordResult) -> tuple[Flag, ...]:
     """Findings about the whole log (attached to every fit)."""
     out = []
-    start = _starts_mid_transient(result)
-    if start is not None:
-        out.append(start)
+    for check in (_starts_mid_transient, _zero_static_gain):
+        found = check(result)
+        if found is not None:
+            out.append(found)
     cl = closed_loop_flag(result.record, result.events)
     if cl is not None:
         out.append(cl)

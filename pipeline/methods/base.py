@@ -62,7 +62,7 @@ def fraction(ev: EventData) -> Response:
     if ev.kind == "step":
         input_change(ev)
     if ev.dy == 0 or not np.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
-        raise NotApplicable("the output did not change measurably (|y_ss - y0| <= 3 sigma)")
+        raise NotApplicable(ev.unchanged_reason())
     tau, dy = ev.after()
     return Response(tau, dy / ev.dy, ev.noise / abs(ev.dy))
 

@@ -102,7 +102,9 @@ def mismatch(structure: str, ev: Event | EventData) -> str | None:
         return ("the output ramps without settling (an integrating process): a "
                 "self-regulating model has no gain for it")
     if ev.response == "settling" and ev.settled and integrating:
-        return ("the output settles at a new level after the step (a self-regulating "
+        where = ("settles at a new level" if abs(ev.dy) > 3 * ev.noise else
+                 "settles where it started")
+        return (f"the output {where} after the step (a self-regulating "
                 "process): an integrating model would go on ramping at K du, unless the "
                 "input came exactly to its balance point and the output ramped before")
     return None
@@ -121,7 +123,7 @@ def unchanged(ev: EventData) -> str | None:
         return None if peak > 3 * ev.noise else ("no measurable response to the pulse "
                                                   "(peak <= 3 sigma)")
     if ev.dy == 0 or not math.isfinite(ev.dy) or abs(ev.dy) <= 3 * ev.noise:
-        return "the output did not change measurably (|y_ss - y0| <= 3 sigma)"
+        return ev.unchanged_reason()
     return None
 
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..events import Event
+from ..events import Event, EventData
 from ..fit import Fit, Fold, InitialState
 from ..models import ProcessModel
 from ..record import Record
@@ -254,8 +254,11 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
     ident = list(ident)
     many = tuple(ident) if len(ident) > 1 else ()
     if all(abs(events[i].y_ss - events[i].y0) <= 3 * events[i].noise for i in ident):
-        return Fit(method, ident[0], "not_applicable", "the output did not change measurably "
-                   "(|y_ss - y0| <= 3 sigma)", events=many)
+        said = [(i, EventData.from_event(record, events[i]).unchanged_reason())
+                for i in ident]
+        i, why = next(((i, w) for i, w in said if "came back" in w), said[0])
+        return Fit(method, ident[0], "not_applicable", f"event {i}: {why}" if many else why,
+                   events=many)
     reasons = [(i, mismatch(structure, events[i])) for i in ident]
     i, reason = next(((i, r) for i, r in reasons if r), (None, None))
     if reason:
