@@ -8,7 +8,7 @@ import json
 
 from typer.testing import CliRunner
 
-from pipeline.check import check_config
+from pipeline.cli.check import check_config
 from pipeline.cli.commands import app
 from tests.test_cli import _csv
 

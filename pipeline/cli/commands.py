@@ -144,7 +144,7 @@ def run(
     left, an earlier report in --out is kept; the exit code is 143 (SIGTERM) or 130.
     """
     if check:
-        from ..check import check_config
+        from .check import check_config
 
         code, rows = check_config(config)
         for r in rows:
@@ -376,7 +376,7 @@ def schema(config: Annotated[bool, typer.Option(
         = False) -> None:
     """Print the JSON Schema of results.json (or, with --config, of a run config)."""
     if config:
-        from ..check import config_schema_text
+        from .check import config_schema_text
 
         sys.stdout.write(config_schema_text())
         return

@@ -102,7 +102,7 @@ def mismatch(structure: str, ev: Event | EventData) -> str | None:
         return ("the output ramps without settling (an integrating process): a "
                 "self-regulating model has no gain for it")
     if ev.response == "settling" and ev.settled and integrating:
-        where = ("settles at a new level" if abs(ev.dy) > 3 * ev.noise else
+        where = ("settles at a new level" if abs(ev.y_ss - ev.y0) > 3 * ev.noise else
                  "settles where it started")
         return (f"the output {where} after the step (a self-regulating "
                 "process): an integrating model would go on ramping at K du, unless the "

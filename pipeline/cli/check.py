@@ -7,8 +7,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 
-from .config import RunConfig, load_config
-from .errors import ExitCode, UserError
+from ..config import RunConfig, load_config
+from ..errors import ExitCode, UserError
 
 
 @dataclass(frozen=True)
@@ -32,8 +32,8 @@ def check_config(config) -> tuple[int, list[CheckedRecord]]:
     each one (the file read, the columns found, the time checked), identifying nothing.
     The exit code as ``pipeline run`` gives it: 0 every record loads, 3 some do not, 2
     none does; a bad config itself is a :class:`UserError`."""
-    from .io import load_record
-    from .run import effective_data, resolve_specs
+    from ..io import load_record
+    from ..run import effective_data, resolve_specs
 
     cfg = config if isinstance(config, RunConfig) else load_config(config)
     rows = []
