@@ -30,6 +30,7 @@ from .fit import Fit
 from .grading import grade, information_criteria, no_usable_model, per_step, recommend
 from .methods import REGISTRY, event_fit, identify, select_methods
 from .metrics import mse
+from .outliers import without_outliers
 from .record import Record
 from .refine import RefineOptions, event_states, held_out_events, span_fit
 from .results import RecordResult
@@ -70,6 +71,7 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     back with ``error`` set; a method that does not apply gives a ``not_applicable`` fit.
     """
     opt = options or AnalysisOptions()
+    record = without_outliers(record)  # a glitch is named (outlier_samples), not fitted
     base = RecordResult(name=name or record.name, source=record.source, record=record)
     events = segment(record, opt.segmentation)
     if not events:

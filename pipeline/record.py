@@ -36,6 +36,9 @@ class Record:
     output_name: str = "y"
     notes: tuple[str, ...] = ()  # warnings from loading (gaps, unindexed scan, ...)
     start: str | None = None  # the absolute time of t[0], ISO-8601 with offset, when known
+    #: output samples taken as single-sample outliers and replaced for the analysis:
+    #: ``(row, value read, value used)`` (:func:`pipeline.outliers.without_outliers`)
+    outliers: tuple[tuple[int, float, float], ...] = ()
 
     @property
     def n_samples(self) -> int:

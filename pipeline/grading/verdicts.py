@@ -67,6 +67,8 @@ FLAGS: dict[str, str] = {
     "oscillation_unmodelled": "the step's response overshoots and comes back (an "
                               "oscillation above the noise) and the model cannot: it misses "
                               "a lightly damped mode",
+    "outlier_samples": "single output samples far off their neighbours (sensor glitches) "
+                       "were replaced by their neighbours' median for the analysis",
     "zero_static_gain": "a step's response moves well above the noise and comes back to "
                         "where it started: no structure of the table represents it",
 }
@@ -185,6 +187,26 @@ def _starts_mid_transient(result: RecordResult) -> Flag | None:
                 {"drift": drift, "input": u0})
 
 
+def _outlier_samples(result: RecordResult) -> Flag | None:
+    """The output's single-sample outliers the analysis replaced
+    (:mod:`pipeline.outliers`), named with their rows and values (information: the fits
+    did not see them)."""
+    rec = result.record
+    if not rec.outliers:
+        return None
+    shown = "; ".join(f"t = {_t(float(rec.t[i]), rec)} reads {read:.4g} where its "
+                      f"neighbours read {used:.4g}" for i, read, used in rec.outliers[:3])
+    more = f" and {len(rec.outliers) - 3} more" if len(rec.outliers) > 3 else ""
+    n = len(rec.outliers)
+    return Flag("outlier_samples", f"{n} output sample{'s' if n > 1 else ''} far off "
+                f"{'their' if n > 1 else 'its'} neighbours (a sensor glitch: {shown}{more}) "
+                f"{'were' if n > 1 else 'was'} replaced by the neighbours' running median "
+                "for the analysis; the fits did not see "
+                f"{'them' if n > 1 else 'it'}.",
+                {"samples": n, "first_time": float(rec.t[rec.outliers[0][0]]),
+                 "first_value": rec.outliers[0][1]}, severity="info")
+
+
 def _zero_static_gain(result: RecordResult) -> Flag | None:
     """A step whose output moves far above the noise and comes back to where it started
     (no final change, :meth:`pipeline.events.EventData.excursion`): an acceleration, a
@@ -213,7 +235,7 @@ def _zero_static_gain(result: RecordResult) -> Flag | None:
 def record_flags(result: RecordResult) -> tuple[Flag, ...]:
     """Findings about the whole log (attached to every fit)."""
     out = []
-    for check in (_starts_mid_transient, _zero_static_gain):
+    for check in (_outlier_samples, _starts_mid_transient, _zero_static_gain):
         found = check(result)
         if found is not None:
             out.append(found)
