@@ -20,6 +20,7 @@ from ..errors import ExitCode, UserError
 from ..quoting import printable
 from ..version import __version__
 from .data import with_data_options
+from .help_types import example  # also --help's value words, not <bool>
 from .output import (
     JsonOption,
     err,
@@ -101,7 +102,7 @@ def stoppable(command):
 
 # -- run ---------------------------------------------------------------------------------
 
-@app.command()
+@app.command(epilog=example("run"))
 @stoppable
 @handled
 def run(
@@ -201,7 +202,7 @@ FileArg = Annotated[Path, typer.Argument(
     help="a log: .csv/.tsv/.txt, .dat, .mat, .xlsx, .parquet/.feather/.arrow or .mcap")]
 
 
-@app.command(context_settings={"allow_extra_args": True})
+@app.command(context_settings={"allow_extra_args": True}, epilog=example("identify"))
 @stoppable
 @handled
 @with_data_options
@@ -255,7 +256,7 @@ def identify(
 
 
 
-@app.command(context_settings={"allow_extra_args": True})
+@app.command(context_settings={"allow_extra_args": True}, epilog=example("tune"))
 @handled
 def tune(
     ctx: typer.Context,
@@ -313,7 +314,7 @@ def tune(
             out.print(printable(line), markup=False)
 
 
-@app.command()
+@app.command(epilog=example("segment"))
 @handled
 @with_data_options
 def segment(
@@ -348,7 +349,7 @@ def segment(
     show(tab)
 
 
-@app.command()
+@app.command(epilog=example("methods"))
 @handled
 def methods(as_json: JsonOption = False) -> None:
     """List the identification methods: id, event kind, model structures, reference."""
@@ -369,7 +370,7 @@ def methods(as_json: JsonOption = False) -> None:
     show(tab)
 
 
-@app.command()
+@app.command(epilog=example("schema"))
 @handled
 def schema(config: Annotated[bool, typer.Option(
         "--config", help="the run config's schema instead (for an editor's YAML support)")]
@@ -385,7 +386,7 @@ def schema(config: Annotated[bool, typer.Option(
     sys.stdout.write(json_schema_text())
 
 
-@app.command()
+@app.command(epilog=example("inspect"))
 @handled
 def inspect(file: Annotated[Path, typer.Argument(help="an .mcap log")],
             as_json: JsonOption = False) -> None:
@@ -405,7 +406,7 @@ def inspect(file: Annotated[Path, typer.Argument(help="an .mcap log")],
 
 # -- datasets ----------------------------------------------------------------------------
 
-@datasets_app.command("list")
+@datasets_app.command("list", epilog=example("datasets list"))
 @handled
 def datasets_list(as_json: JsonOption = False) -> None:
     """The registered public datasets."""
@@ -427,7 +428,7 @@ def datasets_list(as_json: JsonOption = False) -> None:
     show(tab)
 
 
-@datasets_app.command("fetch")
+@datasets_app.command("fetch", epilog=example("datasets fetch"))
 @handled
 def datasets_fetch(name: Annotated[str, typer.Argument(help="dataset name")]) -> None:
     """Fetch a dataset into the local cache (sha256 checked)."""
@@ -436,7 +437,7 @@ def datasets_fetch(name: Annotated[str, typer.Argument(help="dataset name")]) ->
     out.print(str(fetch(name)), markup=False)
 
 
-@datasets_app.command("synth")
+@datasets_app.command("synth", epilog=example("datasets synth"))
 @handled
 def datasets_synth(
     folder: Annotated[Path, typer.Argument(help="where to write the logs")],
@@ -456,7 +457,7 @@ def datasets_synth(
 
 # -- baseline ----------------------------------------------------------------------------
 
-@baseline_app.command("accept")
+@baseline_app.command("accept", epilog=example("baseline accept"))
 @handled
 def baseline_accept(
     results: Annotated[Path, typer.Argument(help="a run's results.json")],
