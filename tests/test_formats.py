@@ -43,7 +43,8 @@ VALUES = {"time": "time", "sample_time": 0.5, "columns": ["time", "u", "y"],
           "stamp": "header.stamp", "max_gap": 5.0, "time_unit": "ms", "time_zone": "UTC",
           "time_format": "%Y-%m-%d %H:%M:%S", "delimiter": "comma", "decimal": ".",
           "header": True, "sheet": "log", "duplicates": "mean", "fill_gaps": 2,
-          "long_gaps": "keep_longest", "trailing_lines": "skip", "unwrap": 360.0}
+          "long_gaps": "keep_longest", "trailing_lines": "skip", "skip_rows": 2,
+          "unwrap": 360.0}
 
 
 @pytest.fixture(scope="module")
@@ -113,7 +114,8 @@ def test_a_key_of_another_format_is_one_line(name, key):
      "c.yaml: unknown key 'data.stamp_field' (did you mean 'stamp'?)"),
     ({"path": "logs/", "input": "u", "output": "y", "foo": 1},
      "c.yaml: unknown key 'data.foo'; check its spelling (the keys there: dataset, path, "
-     "paths, format, input, output, initial_input, units, trailing_lines, columns, header, "
+     "paths, format, input, output, initial_input, units, trailing_lines, skip_rows, columns, "
+     "header, "
      "duplicates, fill_gaps, long_gaps, unwrap, time, sample_time, time_unit, time_zone, "
      "time_format, delimiter, decimal, sheet, stamp, max_gap)"),
     ({"dataset": "daisy-heating", "colums": ["t", "u", "y"]},

@@ -56,6 +56,8 @@ DATA_OPTIONS: tuple[tuple[str, object, typer.models.OptionInfo], ...] = (
                                       "(input held, output interpolated); default 0")),
     ("long_gaps", str | None, _option("--long-gaps", "longer drop-outs: error (default) or "
                                       "keep_longest")),
+    ("skip_rows", int | None, _option("--skip-rows", "the first N lines are not data (a "
+                                      "banner); default: such lines found and skipped")),
     ("trailing_lines", str | None, _option("--trailing-lines", "lines after the data that "
                                            "are not data: error (default) or skip")),
     ("unwrap", float | None, _option("--unwrap", "period of an output that wraps (a counter, "

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import polars as pl
-from pydantic import BeforeValidator
+from pydantic import BeforeValidator, Field
 
 from ..errors import UserError
 from ..record import Record
@@ -47,6 +47,18 @@ Delimiter = Annotated[Literal[tuple(DELIMITERS)], BeforeValidator(
     lambda v: DELIMITER_ALIASES.get(v, v) if isinstance(v, str) else v)]
 
 
+#: At most this many lines before a table (a logger's banner) are found and skipped.
+MAX_BANNER = 20
+
+
+class LeadingOption(Strict):
+    """``skip_rows``: the file's first N lines are not data (a logger's banner, an
+    operator's note) and are skipped; without it, up to :data:`MAX_BANNER` such lines are
+    found (the first lines from which the fields split alike) and skipped with a note."""
+
+    skip_rows: int = Field(0, ge=0)
+
+
 class TrailingOption(Strict):
     """``trailing_lines``: lines after the data that are not data rows are an ``error``,
     or ``skip``ped with a note."""
@@ -54,7 +66,7 @@ class TrailingOption(Strict):
     trailing_lines: Literal["error", "skip"] = "error"
 
 
-class TextOptions(TableOptions, HeaderOptions, TrailingOption):
+class TextOptions(TableOptions, HeaderOptions, LeadingOption, TrailingOption):
     """The keys of a delimited text file (see the module docstring)."""
 
     delimiter: Delimiter | None = None
@@ -64,21 +76,27 @@ class TextOptions(TableOptions, HeaderOptions, TrailingOption):
 def load_text(path: Path, data: DataSection, options: TextOptions, name: str) -> Record:
     """One delimited text log as a :class:`Record`: a plain file read directly
     (:mod:`.plain`), any other line by line."""
-    table = read_plain_table(path, data, options, delimiter=options.delimiter,
-                             decimal=options.decimal, header=options.header,
-                             columns=options.columns)
+    table = None if options.skip_rows else read_plain_table(
+        path, data, options, delimiter=options.delimiter, decimal=options.decimal,
+        header=options.header, columns=options.columns)
     return table_to_record(table or read_text_table(path, options), data, options, name)
 
 
 def read_text_table(path: Path, options: TextOptions) -> Table:
     """The file's rows as a :class:`Table` of text columns (numbers parsed later)."""
-    content = [(n, line) for n, line in enumerate(_lines(path), start=1)
-               if line.strip() and not line.lstrip().startswith("#")]
+    content = [(n, line) for n, line in enumerate(text_lines(path), start=1)
+               if n > options.skip_rows and line.strip() and not line.lstrip().startswith("#")]
     if not content:
         raise UserError(f"{path}: the file is empty; expected a table of numbers")
+    delimiter, lead = options.delimiter, []
+    if delimiter is None:
+        delimiter, k = _sniff_after_banner(content, path)
+        if k:
+            lead = [f"skipped {k} line(s) before the table that are not data (lines "
+                    f"{content[0][0]}-{content[k - 1][0]}); set skip_rows: "
+                    f"{content[k - 1][0]} (--skip-rows) to say so"]
+            content = content[k:]
     first, top = content[0]
-    delimiter = options.delimiter or sniff_delimiter([line for _, line in content[:SAMPLE]],
-                                                     str(path))
     head = split(top, delimiter)
     header = options.header
     if header is None:
@@ -94,7 +112,23 @@ def read_text_table(path: Path, options: TextOptions) -> Table:
                                                 body[:SAMPLE]], delimiter)
     if decimal == ",":
         frame = frame.with_columns(pl.all().str.replace_all(",", ".", literal=True))
-    return Table(frame, names, Places(path, [n for n, _ in body]), notes=tuple(notes))
+    return Table(frame, names, Places(path, [n for n, _ in body]), notes=tuple(lead + notes))
+
+
+def _sniff_after_banner(content: list[tuple[int, str]], path: Path) -> tuple[str, int]:
+    """``(delimiter, k)``: the delimiter of the first lines, or, when they do not split
+    alike, of the lines after the first ``k`` (at most :data:`MAX_BANNER`: a logger's
+    banner before the table); the first lines' error when no ``k`` helps."""
+    lines = [line for _, line in content]
+    try:
+        return sniff_delimiter(lines[:SAMPLE], str(path)), 0
+    except UserError as first_error:
+        for k in range(1, min(MAX_BANNER, len(lines) - 2) + 1):
+            try:
+                return sniff_delimiter(lines[k:k + SAMPLE], str(path)), k
+            except UserError:
+                continue
+        raise first_error from None
 
 
 def _parse(body: list[tuple[int, str]], delimiter: str, width: int, first: int,
@@ -130,7 +164,7 @@ def _check_widths(counts: list[tuple[int, int]], width: int, first: int, path: P
                             "expected the same number of fields on every row")
 
 
-def _lines(path: Path) -> list[str]:
+def text_lines(path: Path) -> list[str]:
     """The file's text lines; a binary file is an error."""
     try:
         raw = path.read_bytes()
