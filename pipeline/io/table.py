@@ -29,6 +29,7 @@ from .quirks import QuirkOptions, Rows, check_order, fill_gaps, merge_duplicates
 from .timebase import TimeOptions, display_unit, time_base
 
 _UNIT = re.compile(r"(.*?)\s*(?:\(([^()]*)\)|\[([^\[\]]*)\])")
+_INDEX = re.compile(r"\d+(?:\s*,\s*\d+)*")
 
 
 class ColumnsOption(Strict):
@@ -76,9 +77,11 @@ class Table:
 
 
 def split_unit(name: str) -> tuple[str, str | None]:
-    """``"T [°C]"`` -> ``("T", "°C")``; a name without a unit -> ``(name, None)``."""
+    """``"T [°C]"`` -> ``("T", "°C")``; a name without a unit -> ``(name, None)``, and so
+    is an index (``result[2]``, a MATLAB matrix's column; ``x(3)``): numbers alone in
+    brackets are a position, not a unit."""
     m = _UNIT.fullmatch(name.strip())
-    if not m or not m.group(1):
+    if not m or not m.group(1) or _INDEX.fullmatch((m.group(2) or m.group(3) or "").strip()):
         return name.strip(), None
     return m.group(1), (m.group(2) or m.group(3) or "").strip() or None
 
