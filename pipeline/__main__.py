@@ -1,14 +1,17 @@
 """``python -m pipeline`` and the ``pipeline`` command: the command line, in a process that
 is the command's own, so polars' allocator is set up first (:func:`pipeline.memory.
 polars_returns_freed_pages`, before anything imports polars; pool workers inherit it), and
-glibc's mmap threshold fixed (:func:`pipeline.memory.large_arrays_mapped`)."""
+glibc's mmap threshold fixed (:func:`pipeline.memory.large_arrays_mapped`), and one
+native BLAS thread (:func:`pipeline.threads.one_native_thread`)."""
 
 from .memory import large_arrays_mapped, polars_returns_freed_pages
+from .threads import one_native_thread
 
 
 def main() -> None:
     polars_returns_freed_pages()
     large_arrays_mapped()
+    one_native_thread()
     from .cli import app
 
     app(prog_name="pipeline")
