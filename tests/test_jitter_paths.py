@@ -1,0 +1,61 @@
+"""Jittered time stamps on the fast exact paths (issue 30 item 4): the modes' closed form
+(:func:`pipeline.simulation.engine._propagate_modal`) and the clustered matrix exponential
+(:func:`pipeline.simulation.zoh.expm_near`) give the per-interval loop's and ``expm``'s
+numbers to rounding, on a 1 % jittered grid with the dead time's offsets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import linalg
+
+from pipeline.models import ProcessModel
+from pipeline.simulation import engine, zoh
+
+
+def _grid(n=800, seed=1):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.99, 1.01, n))
+    return t - t[0]
+
+
+MODELS = [
+    ProcessModel("first_order", {"K": 2.0, "T": 20.0, "delay": 3.3}),
+    ProcessModel("first_order", {"K": 2.0, "T": 0.05, "delay": 0.0}),  # far below a sample
+    ProcessModel("second_order", {"K": 1.5, "zeta": 0.3, "wn": 0.2, "delay": 1.7}),
+    ProcessModel("two_lags", {"K": 1.0, "T1": 30.0, "T2": 4.0, "delay": 0.5}),
+    ProcessModel("zero_two_lags", {"K": 1.0, "Tz": -5.0, "T1": 30.0, "T2": 4.0}),
+    ProcessModel("integrator_lag", {"K": 0.1, "T": 5.0, "delay": 2.0}),
+    ProcessModel("lead_lag", {"K": 1.2, "Tz": 9.0, "T": 6.0, "delay": 0.9}),
+]
+
+
+@pytest.mark.parametrize("model", MODELS, ids=lambda m: m.structure)
+def test_the_modes_closed_form_is_the_loop(model, monkeypatch):
+    t = _grid()
+    u = 1.0 + np.repeat(np.random.default_rng(2).normal(size=16), 50)
+    fast = engine.simulate_irregular(model, t, u, 1.0, 4.0)
+    monkeypatch.setattr(engine, "_propagate_modal", lambda *a: None)
+    loop = engine.simulate_irregular(model, t, u, 1.0, 4.0)
+    assert np.max(np.abs(fast - loop)) <= 1e-11 * max(np.max(np.abs(loop - 4.0)), 1e-300)
+
+
+def test_a_repeated_pole_leaves_the_closed_form():
+    A, B, _, _ = zoh.state_space(ProcessModel("n_lags", {"K": 1.0, "T": 5.0, "n": 3}))
+    assert engine._propagate_modal(A, B[:, 0], _grid(50), np.ones(50)) is None
+
+
+@pytest.mark.parametrize("model", [ProcessModel("n_lags", {"K": 1.0, "T": 5.0, "n": 4}),
+                                   ProcessModel("two_lags", {"K": 1.0, "T1": 5.0, "T2": 5.0}),
+                                   ProcessModel("n_lags", {"K": 1.0, "T": 0.05, "n": 3})],
+                         ids=["n_lags", "equal_two_lags", "fast_chain"])
+def test_the_clustered_exponential_is_expm(model):
+    A, B, _, _ = zoh.state_space(model)
+    n = A.shape[0]
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n:] = A, B
+    rng = np.random.default_rng(0)
+    steps = np.concatenate([[0.0], rng.uniform(0.98, 1.02, 300), rng.uniform(0.29, 0.31, 300),
+                            [3.0, 1e-6, 250.0]])
+    ref = linalg.expm(M[None] * steps[:, None, None])
+    assert np.max(np.abs(zoh.expm_near(M, steps) - ref)) < 1e-13 * np.max(np.abs(ref))
