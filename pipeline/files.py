@@ -88,3 +88,22 @@ def write_atomic(path: str | os.PathLike, data: bytes, what: str = "file") -> No
     finally:
         if tmp is not None and Path(tmp).exists():
             Path(tmp).unlink(missing_ok=True)
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` and ``b`` name one file (through links, hard links and ``..``); two
+    paths of which one does not exist yet are one file when they resolve alike."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def refuse_input(target: Path, what: str, inputs: list[tuple[Path, str]]) -> None:
+    """An output (``target``, ``what`` it is) that names one of the run's ``inputs``
+    (``(path, what it is)``: the config, a log, the baseline, another output) is one
+    :class:`UserError` line: an output never replaces what the run reads."""
+    for path, name in inputs:
+        if same_file(target, path):
+            raise UserError(f"{target}: the {what} would replace {name} ({path}); give "
+                            "another path")

@@ -28,7 +28,7 @@ from .analysis import AnalysisOptions, analyse
 from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
-from .files import check_writable
+from .files import check_writable, refuse_input
 from .gate import (
     Comparison,
     Tolerances,
@@ -297,9 +297,17 @@ def _plan(cfg: RunConfig, out_dir: Path | None, executor: str, baseline: Path | 
     specs = resolve_specs(cfg)
     target = out_dir or cfg.report_folder()  # name is a label: never a path
     report.check_target(target)
+    inputs = [(Path(cfg.source), "the config")] if cfg.source != "<config>" else []
+    inputs += [(Path(s.path), f"the log of record {s.name!r}") for s in specs if not s.dataset]
+    if baseline is not None:
+        inputs.append((Path(baseline), "the baseline"))
     for path, what in ((junit, "JUnit file"), (history, "history")):
         if path is not None:
             check_writable(path, what)
+            refuse_input(Path(path), what, inputs)
+            inputs.append((Path(path), f"the {what}"))
+    if junit is not None:
+        report.refuse_foreign_junit(Path(junit))
     base_doc = None if baseline is None else load_baseline(
         baseline, config=cfg.source, records=[s.name for s in specs], methods=cfg.methods)
     past = load_history(history) if history is not None and Path(history).exists() else None

@@ -25,7 +25,8 @@ from __future__ import annotations
 import io
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -114,11 +115,39 @@ def append_history(path: str | os.PathLike, results: ResultsDoc,
     at ``path`` (created with its folder when absent); returns the whole history."""
     p = Path(path)
     new = history_rows(results, run_time)
-    frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() else new
-    buf = io.BytesIO()
-    frame.write_parquet(buf)
-    write_atomic(p, buf.getvalue(), "history")
+    with _locked(p):  # read, add, replace: one run at a time, or rows are lost
+        frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() \
+            else new
+        buf = io.BytesIO()
+        frame.write_parquet(buf)
+        write_atomic(p, buf.getvalue(), "history")
     return frame
+
+
+#: How long a run waits for another run's history append (seconds) before it says so.
+LOCK_WAIT = 120.0
+
+
+@contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path``'s lock file (``NAME.lock`` beside it, filelock):
+    four runs appending at once kept 1 of 4 rows without it (issue 31). A history
+    another run holds for longer than :data:`LOCK_WAIT` is one :class:`UserError`."""
+    from filelock import FileLock, Timeout
+
+    lock = FileLock(str(path.parent / f"{path.name}.lock"), timeout=LOCK_WAIT)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock.acquire()
+    except Timeout:
+        raise UserError(f"{path}: another run has held the history for {LOCK_WAIT:g} s; "
+                        "this run's rows were not added") from None
+    except OSError as exc:
+        raise UserError(f"{path}: cannot lock the history ({exc.strerror or exc})") from None
+    try:
+        yield
+    finally:
+        lock.release()
 
 
 def load_history(path: str | os.PathLike) -> pl.DataFrame:

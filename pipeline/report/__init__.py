@@ -10,7 +10,8 @@ from importlib import import_module
 _EXPORTS = {
     "Extras": "build", "write_run": "build",
     "baseline_reference": "history_plots", "history_figures": "history_plots",
-    "write_junit": "junit", "check_target": "outdir", "gate_lines": "regressions",
+    "write_junit": "junit", "refuse_foreign_junit": "junit", "check_target": "outdir",
+    "gate_lines": "regressions",
     "fmt": "tables", "PARAMETERS_COLUMN": "tables",
     "ranking_table": "tables", "recommended_box": "tables",
     "response_text": "tables", "controller_lines": "controller",

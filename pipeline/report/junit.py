@@ -36,6 +36,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
 
+from ..errors import UserError
 from ..files import write_atomic
 from ..gate import Comparison, Finding
 from ..quoting import printable
@@ -86,6 +87,26 @@ def junit_xml(current: ResultsDoc, comparison: Comparison | None = None, *,
     _printable(root)
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+#: The start of every JUnit file this tool writes (its root element, ``name`` first).
+OUR_ROOT = f'<testsuites name="{SUITE}'.encode()
+
+
+def refuse_foreign_junit(path: Path) -> None:
+    """An existing file at ``path`` that is not a JUnit file this tool wrote is one
+    :class:`UserError` line (issue 31: ``--junit`` replaced whatever it named, a config
+    or a log included); a missing file, or one of ours from an earlier run, is fine."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read the JUnit file ({exc.strerror or exc})") from None
+    if OUR_ROOT not in head:
+        raise UserError(f"{path}: exists and is not a JUnit file pipeline wrote; remove it "
+                        "or give another --junit path")
 
 
 def write_junit(path: str | os.PathLike, current: ResultsDoc,
