@@ -137,6 +137,7 @@ def test_bimodal_grid_is_exact_at_bounded_cost(model, monkeypatch):
         return real(A, B, steps)
 
     monkeypatch.setattr(discretise, "transitions", counting)
+    monkeypatch.setattr(simulation, "FEW_CHANGES", 0)  # the transitions' batch, not steps
     y = simulate(model, t, u, 1.0, 4.0)
     assert np.max(np.abs(y - ref)) < 1e-9 * np.max(np.abs(ref - 4.0))
     # distinct poles: the modes' closed form over chunks, no per-interval transitions;

@@ -59,3 +59,19 @@ def test_the_clustered_exponential_is_expm(model):
                             [3.0, 1e-6, 250.0]])
     ref = linalg.expm(M[None] * steps[:, None, None])
     assert np.max(np.abs(zoh.expm_near(M, steps) - ref)) < 1e-13 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("changes", [5, 200])
+def test_an_equal_lag_chain_on_jittered_stamps(changes):
+    """Repeated poles: a staircase (5 changes) by superposition of closed-form steps, a
+    busy input (200) by the transitions; both the loop's numbers."""
+    m = ProcessModel("n_lags", {"K": 1.3, "T": 6.0, "n": 4, "delay": 1.4})
+    t = _grid()
+    u = 1.0 + np.repeat(np.random.default_rng(3).normal(size=changes), t.size // changes)
+    u = np.concatenate([u, np.full(t.size - u.size, u[-1])])
+    fast = engine.simulate_irregular(m, t, u, 1.0, 0.0)
+    ref = np.zeros(t.size)
+    du = np.diff(u, prepend=1.0)
+    for k in np.flatnonzero(du):
+        ref[k:] += du[k] * m.unit_step(t[k:] - t[k])
+    assert np.max(np.abs(fast - ref)) <= 1e-9 * np.max(np.abs(ref))

@@ -215,6 +215,8 @@ def simulate_irregular(model: ProcessModel, t: np.ndarray, u: np.ndarray, u0: fl
     held = np.maximum.accumulate(src)  # the input sample held at each point (-1: before)
     u_held = np.where(held >= 0, du[np.maximum(held, 0)], 0.0)
     X = _propagate_modal(A, B[:, 0], pts, u_held)
+    if X is None and np.count_nonzero(du[1:] != du[:-1]) + 1 <= FEW_CHANGES:
+        return _superposed(model, t, u, u0, y0)
     if X is None:
         steps, group = zoh.step_groups(np.diff(pts))
         Phi, Gam = zoh.transitions(A, B, steps)
@@ -309,18 +311,31 @@ def _propagate(Phi: np.ndarray, Gam: np.ndarray, group: np.ndarray, u_held: np.n
     return X
 
 
+#: A repeated-pole model (an equal-lag chain) on an irregular grid whose input changes at
+#: most this many times (a step test's staircase) is simulated by superposition: the
+#: per-point loop costs about 2 us a point, the steps' closed forms a few ns a point each.
+FEW_CHANGES = 32
+
+
+def _superposed(model, t, u, u0, y0) -> np.ndarray:
+    """``y0 + sum_k (u[k] - u[k-1]) S(t - t[k])``: a held input is a sum of steps, each
+    answered by the model's closed-form step response ``S`` (its dead time included):
+    exact on any grid, in O(samples x changes)."""
+    du = np.diff(u, prepend=float(u0))
+    y = np.full(t.size, float(y0))
+    for k in np.flatnonzero(du):
+        y[k:] += du[k] * model.unit_step(t[k:] - t[k])
+    return y
+
+
 def _irregular_without_state_space(model, t, u, u0, y0) -> np.ndarray:
     """A held input is a sum of steps, so ``y = y0 + sum_k (u[k] - u[k-1]) S(t - t[k])``
     with the closed-form step response S, exact while affordable. Otherwise (an input that
     changes at most samples of a long record) a uniform grid at a quarter of the smallest
     interval, at most :data:`MAX_GRID` points, input held, output interpolated back."""
     du = np.diff(u, prepend=float(u0))
-    changes = np.flatnonzero(du)
-    y = np.full(t.size, float(y0))
-    if changes.size * t.size <= SUPERPOSITION_BUDGET:
-        for k in changes:
-            y[k:] += du[k] * model.unit_step(t[k:] - t[k])
-        return y
+    if np.count_nonzero(du) * t.size <= SUPERPOSITION_BUDGET:
+        return _superposed(model, t, u, u0, y0)
     dt = max(float(np.min(np.diff(t))), float(np.median(np.diff(t)))) / 4
     dt = max(dt, float(t[-1] - t[0]) / MAX_GRID)
     grid = np.arange(t[0], t[-1] + dt / 2, dt)
