@@ -24,6 +24,7 @@ of an unreadable schema version is refused the same way.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterable
 from pathlib import Path
@@ -53,6 +54,7 @@ def check_baseline(doc: ResultsDoc, where: str, *, config: str | None = None,
     :class:`UserError` naming ``where``. ``config`` is the run's config path, ``records``
     the names of its records, ``methods`` the config's method ids (or "all")."""
     accept_cmd = "make one with `pipeline baseline accept <results.json>`"
+    _finite_parameters(doc, where, accept_cmd)
     if config and doc.config and Path(doc.config).name != Path(config).name:
         raise UserError(f"{where}: a baseline of config {doc.config!r}, not of this run's "
                         f"{config!r}; expected a baseline of the same config ({accept_cmd})")
@@ -73,6 +75,22 @@ def check_baseline(doc: ResultsDoc, where: str, *, config: str | None = None,
     return doc
 
 
+def _finite_parameters(doc: ResultsDoc, where: str, accept_cmd: str) -> None:
+    """Every parameter of the baseline's fits and recommended models is a finite number
+    or null: a NaN compares false with everything, so it turned the gate off (a doubled
+    gain passed with exit 0, issue 31)."""
+    for rec in doc.records:
+        shown = [(f"fit {f.method!r} (event {f.event})", f.params) for f in rec.fits]
+        if rec.recommended is not None:
+            shown.append(("the recommended model", rec.recommended.params))
+        for label, params in shown:
+            for name, value in (params or {}).items():
+                if isinstance(value, float) and not math.isfinite(value):
+                    raise UserError(f"{where}: record {rec.name!r}, {label}: parameter "
+                                    f"{name!r} is {value}; a baseline's parameters must be "
+                                    f"numbers ({accept_cmd})")
+
+
 def load_baseline(path: str | os.PathLike, *, config: str | None = None,
                   records: Iterable[str] | None = None,
                   methods: Iterable[str] | str | None = None) -> ResultsDoc:
@@ -88,7 +106,8 @@ def accept(results_path: str | os.PathLike, to_path: str | os.PathLike) -> Path:
     The bytes are copied unchanged; the target folder is created. Returns ``to_path``.
     """
     src = Path(results_path)
-    load_results(src)  # refuse to accept something that is not a valid results file
+    # refuse to accept something that is not a valid results file, or one with NaNs
+    _finite_parameters(load_results(src), str(src), "re-run it")
     dst = Path(to_path)
     write_atomic(dst, src.read_bytes(), "baseline")
     return dst
