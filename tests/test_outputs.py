@@ -79,6 +79,20 @@ def test_an_earlier_runs_plots_go_with_it_the_users_stay(tmp_path, run):
     assert {p.name for p in (out / "plots").iterdir()} == {"mine.png"}
 
 
+def test_a_users_report_md_in_a_folder_no_run_wrote_is_kept(tmp_path, run):
+    """Issue 31: ``markdown: false`` into a folder with the user's own report.md (no
+    manifest: no run wrote there) removed it. Only what a manifest lists goes; the twin:
+    the run's own report.md of an earlier run still goes (above)."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.md").write_text("my notes")
+    _write(out, run, markdown=False)
+    assert (out / "report.md").read_text() == "my notes"
+    assert "report.md" not in json.loads((out / outdir.MANIFEST).read_text())
+    _write(out, run, markdown=False)  # and again: it is still not ours
+    assert (out / "report.md").read_text() == "my notes"
+
+
 def test_a_planted_manifest_removes_nothing_outside_plots(tmp_path, run):
     out = tmp_path / "out"
     out.mkdir()

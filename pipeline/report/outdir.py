@@ -7,9 +7,10 @@
 * Only then are the run's own files moved into place, one ``os.replace`` each, the plots
   first and the reports last: a run that dies before the swap leaves the previous report
   intact. A replaced file keeps its mode; a new one gets the umask's.
-* The run's own files are :data:`OWNED` and the plots it writes. The plots an earlier run
-  wrote are listed in :data:`MANIFEST`; those this run does not write again are removed,
-  nothing else: the user's own files (in ``plots/`` too) are kept.
+* The run's own files are :data:`OWNED` and the plots it writes, all listed in
+  :data:`MANIFEST`; what an earlier run listed and this run does not write again is
+  removed, nothing else: the user's own files (in ``plots/`` too, and a ``report.md`` in a
+  folder no run wrote) are kept.
 * A staging folder left by a killed run names its host and process id; the next run on
   that host removes those whose process is gone.
 """
@@ -27,8 +28,9 @@ from pathlib import Path
 
 from ..files import check_writable, default_mode
 
-#: The fixed names a run writes; one the run does not write this time (report.md with
-#: ``markdown: false``) is removed, so the folder never mixes two runs.
+#: The fixed names a run writes; one an earlier run's manifest lists and this run does not
+#: write (report.md with ``markdown: false``) is removed, so the folder never mixes two
+#: runs; one no run listed is the user's and stays.
 OWNED = ("results.json", "report.md", "report.html")
 #: The plots the last run wrote (a JSON list of ``plots/NAME.png``).
 MANIFEST = ".pipeline-outputs.json"
@@ -90,15 +92,19 @@ def remove_stale(out_dir: Path) -> list[Path]:
     return removed
 
 
-def _previous_plots(out_dir: Path) -> set[str]:
-    """The plots the last run listed in its manifest (only names of the plot form)."""
+def _previous_outputs(out_dir: Path) -> set[str]:
+    """What the last run listed in its manifest (names of the plot form and of
+    :data:`OWNED`); nothing without a manifest: a folder no run wrote holds only the
+    user's files (issue 31: ``markdown: false`` removed a user's own report.md). A
+    manifest of an older version lists its plots only; its run wrote :data:`OWNED` too."""
     try:
         names = json.loads((out_dir / MANIFEST).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return set()
     if not isinstance(names, list):
         return set()
-    return {n for n in names if isinstance(n, str) and _PLOT.fullmatch(n)}
+    listed = {n for n in names if isinstance(n, str) and (_PLOT.fullmatch(n) or n in OWNED)}
+    return listed if listed & set(OWNED) else listed | set(OWNED)
 
 
 def publish(out_dir: Path, files: dict[str, bytes]) -> None:
@@ -113,9 +119,8 @@ def publish(out_dir: Path, files: dict[str, bytes]) -> None:
         for name in order:
             (stage / name).parent.mkdir(exist_ok=True)
             (stage / name).write_bytes(files[name])
-        plots = sorted(n for n in files if n not in OWNED)
-        (stage / MANIFEST).write_text(json.dumps(plots), encoding="utf-8")
-        gone = (_previous_plots(out_dir) | set(OWNED)) - set(files)
+        (stage / MANIFEST).write_text(json.dumps(sorted(files)), encoding="utf-8")
+        gone = _previous_outputs(out_dir) - set(files)
         for name in order:
             _move(stage / name, out_dir / name)
         for name in sorted(gone):  # an earlier run's outputs this run does not write
