@@ -43,3 +43,31 @@ def test_an_irregular_grid_has_a_median_interval_and_a_jitter():
     assert rec.sample_time is None
     median, jitter = rec.sampling()
     assert abs(median - 0.5) < 0.005 and abs(jitter - 0.04) < 0.004
+
+
+def test_mse_carries_the_outputs_unit_squared():
+    """Issue 29: "validation MSE 16.1" read as a bare number; with an output unit it is
+    "16.1 degC^2" in the summary, the scores line and the ranking's column; without one,
+    the number alone."""
+    import numpy as np
+
+    import pipeline
+    from pipeline.models import ProcessModel
+    from pipeline.record import make_record
+    from pipeline.report.tables import ranking_table, scores_text, summary_table
+    from pipeline.synth import step_record
+
+    rec = step_record(ProcessModel("first_order", {"K": 2.0, "T": 5.0}), u0=1.0,
+                      changes=[(10.0, 3.0), (60.0, 1.0)], t_end=110.0, dt=0.1, y0=6.0,
+                      noise=0.02)
+    with_units = make_record(rec.t, rec.u, rec.y, name="p", source="p.csv",
+                             units={"input": "V", "output": "degC"})
+    for r, unit in ((with_units, " degC^2"), (rec, "")):
+        res = pipeline.analyse(r)
+        cells = [c.text for c in summary_table([res], ["a"]).rows[0]]
+        mse = cells[7]
+        assert mse.endswith(unit) and np.isfinite(float(mse.split()[0]))
+        assert ("validation MSE " in scores_text(res, res.recommended)) and (
+            scores_text(res, res.recommended).endswith(unit) or not unit)
+        header = ranking_table(res, 0).columns[5]
+        assert header.endswith("[degC^2]") == bool(unit)

@@ -33,6 +33,7 @@ from .tables import (
     events_table,
     fmt,
     ident_summary_table,
+    mse_unit,
     not_ok_rows,
     ranking_table,
     recommended_box,
@@ -178,8 +179,8 @@ def _ident_context(res: RecordResult, i: int, mode: str, add, anchor: str, dpi: 
         low = min((v for v in values if math.isfinite(v)), default=0.0)
         values, label = [v - low for v in values], "AIC - lowest AIC"
     else:
-        unit = rec.units.get("output")
-        label = CRITERION_NAMES[crit] + (f" [{unit}^2]" if unit else "")
+        unit = mse_unit(rec, crit)
+        label = CRITERION_NAMES[crit] + (f" [{unit}]" if unit else "")
     out["figures"].append(add(f"{anchor}_e{i}_ranking", "Methods ranked", plots.criterion_bars(
         [f.method for f in fits], values, label,
         f"Event {i}: methods ranked by {out['criterion']} (lower is better)", dpi=dpi)))

@@ -160,6 +160,21 @@ def dynamics_text(structure: str | None, params: dict, record: Record | None = N
         for k in names if k in params) or "-"
 
 
+def mse_unit(record: Record | None, crit: str = "mse_validation") -> str:
+    """The unit of a squared-error criterion: the output's unit squared (``degC^2``), or
+    "" when the output has no unit or the criterion is no MSE (AIC)."""
+    unit = record.units.get("output") if record is not None else None
+    return f"{unit}^2" if unit and crit.startswith("mse") else ""
+
+
+def with_mse_unit(value, record: Record | None, crit: str = "mse_validation") -> str:
+    """``fmt(value)`` with :func:`mse_unit` after it (issue 29: "validation MSE 16.1" read
+    as a bare number)."""
+    text = fmt(value)
+    unit = mse_unit(record, crit)
+    return f"{text} {unit}" if unit and text != "-" else text
+
+
 # -- tables ------------------------------------------------------------------------------
 
 def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
@@ -183,7 +198,7 @@ def summary_table(results: list[RecordResult], anchors: list[str]) -> Table:
             Cell(dynamics_text(fit.model.structure, p, r.record)),
             Cell(f"{fmt(shown('delay', fit.model.delay, r.record.units, None))} "
                  f"{unit_of('delay', r.record, None)}".strip(), "num"),
-            Cell(fmt(fit.metrics.get("mse_validation")), "num"),
+            Cell(with_mse_unit(fit.metrics.get("mse_validation"), r.record), "num"),
             Cell(fmt(fit.metrics.get("fit_percent"), 3), "num"),
         ])
     return t
@@ -221,7 +236,8 @@ def ranking_table(res: RecordResult, event: int) -> Table:
     recommended fit's row is marked (it need not be the first: a simpler structure within
     the uncertainty wins)."""
     crit = criterion(res)
-    name = CRITERION_COLUMNS[crit]
+    unit = mse_unit(res.record, crit)
+    name = CRITERION_COLUMNS[crit] + (f" [{unit}]" if unit else "")
     fits, chosen = ranked(res, event), res.recommended
     t = Table(["rank", "method", "verdict", PARAMETERS_COLUMN, "transfer function", name,
                "ISE (ident.)", "fit % (valid.)", "reference"],
@@ -272,9 +288,9 @@ def scores_text(res: RecordResult, fit: Fit) -> str:
     """How the recommended model scored, in words: the criterion it was chosen by, and
     its validation fit where there are validation events."""
     crit = criterion(res)
-    text = f"{CRITERION_NAMES[crit]} {fmt(fit.metrics.get(crit))}"
+    text = f"{CRITERION_NAMES[crit]} {with_mse_unit(fit.metrics.get(crit), res.record, crit)}"
     if res.validation_events and crit != "mse_validation":
-        text += f", validation MSE {fmt(fit.metrics.get('mse_validation'))}"
+        text += f", validation MSE {with_mse_unit(fit.metrics.get('mse_validation'), res.record)}"
     if res.validation_events:
         text = f"validation fit {fmt(fit.metrics.get('fit_percent'), 3)} %, " + text
     return text
