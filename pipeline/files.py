@@ -68,11 +68,27 @@ def check_writable(path: str | os.PathLike, what: str, *, folder: bool = False) 
         raise UserError(f"{p}: cannot write the {what} ({nearest} is not writable)")
 
 
+def through_link(path: Path, what: str) -> Path:
+    """The file a symbolic link ``path`` names (followed to its end; a dangling link's
+    would-be target), so that a write replaces that file and the link stays (issue 31:
+    a ``--history`` link to a shared file was replaced by a regular file, and the shared
+    file never got the row); ``path`` itself when it is no link. A link to something that
+    is not a regular file is one :class:`UserError` line."""
+    if not path.is_symlink():
+        return path
+    target = Path(os.path.realpath(path))
+    if target.exists() and not target.is_file():
+        raise UserError(f"{path}: cannot write the {what} (a link to {target}, which is not "
+                        "a regular file)")
+    return target
+
+
 def write_atomic(path: str | os.PathLike, data: bytes, what: str = "file") -> None:
     """Write ``data`` to a temporary file beside ``path``, then ``os.replace`` it; the
-    folder is created, a replaced file keeps its mode (a new one gets the umask's), and a
+    folder is created, a replaced file keeps its mode (a new one gets the umask's), a
+    symbolic link is written through (:func:`through_link`: the link stays), and a
     failure is one :class:`UserError` line naming ``path`` and ``what`` it is."""
-    path = Path(path)
+    path = through_link(Path(path), what)
     tmp = None
     check_writable(path, what)
     try:

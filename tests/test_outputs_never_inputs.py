@@ -68,3 +68,24 @@ def test_a_junit_file_of_an_earlier_run_is_replaced(setup):
                                 str(junit)])
         assert r.exit_code == 0, r.output
     assert junit.read_text().count("<testsuites") == 1
+
+
+def test_junit_and_history_links_are_written_through(setup):
+    """Issue 31: a --history or --junit symlink to a shared file was replaced by a regular
+    file, so the shared file never got the row. The links stay links; their targets get
+    the writes (the history: one row set per run, twice)."""
+    from pipeline.gate.history import load_history
+
+    tmp, cfg, _ = setup
+    shared = tmp / "shared"
+    shared.mkdir()
+    (tmp / "junit.xml").symlink_to(shared / "junit.xml")  # dangling until the first run
+    (tmp / "history.parquet").symlink_to(shared / "history.parquet")
+    for night in range(2):
+        r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp / f"o{night}"), "--junit",
+                                str(tmp / "junit.xml"), "--history",
+                                str(tmp / "history.parquet")])
+        assert r.exit_code == 0, r.output
+    assert (tmp / "junit.xml").is_symlink() and (tmp / "history.parquet").is_symlink()
+    assert "<testsuites" in (shared / "junit.xml").read_text()
+    assert load_history(shared / "history.parquet")["time"].n_unique() == 2

@@ -33,7 +33,7 @@ from pathlib import Path
 import polars as pl
 
 from ..errors import UserError
-from ..files import write_atomic
+from ..files import through_link, write_atomic
 from ..models import PARAMETERS
 from ..schema import MetricsDoc, ResultsDoc
 
@@ -113,7 +113,7 @@ def append_history(path: str | os.PathLike, results: ResultsDoc,
                    run_time: datetime | None = None) -> pl.DataFrame:
     """Append the rows of one run (``results``: a results document) to the parquet file
     at ``path`` (created with its folder when absent); returns the whole history."""
-    p = Path(path)
+    p = through_link(Path(path), "history")  # one lock for every link to one file
     new = history_rows(results, run_time)
     with _locked(p):  # read, add, replace: one run at a time, or rows are lost
         frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() \
