@@ -19,8 +19,9 @@ import numpy as np
 
 from .schema import EventKind, Response
 
-#: A response whose smoothed excursion passes this many noise sigmas moved (the rise's
-#: own test uses 3 sigmas on the final change; a peak, one of many samples, needs more).
+#: A response whose excursion (:meth:`EventData.excursion`) passes this many noise sigmas
+#: moved (the rise's own test uses 3 sigmas on the final change; a peak, the largest of
+#: many samples, needs more).
 MOVED_SIGMAS = 10.0
 
 

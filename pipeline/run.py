@@ -28,7 +28,7 @@ from .analysis import AnalysisOptions, analyse
 from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
-from .files import check_writable, refuse_input
+from .files import check_writable, refuse_input, through_link
 from .gate import (
     Comparison,
     Tolerances,
@@ -303,7 +303,7 @@ def _plan(cfg: RunConfig, out_dir: Path | None, executor: str, baseline: Path | 
         inputs.append((Path(baseline), "the baseline"))
     for path, what in ((junit, "JUnit file"), (history, "history")):
         if path is not None:
-            check_writable(path, what)
+            check_writable(through_link(Path(path), what), what)  # where the write goes
             refuse_input(Path(path), what, inputs)
             inputs.append((Path(path), f"the {what}"))
     if junit is not None:
