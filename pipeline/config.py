@@ -199,13 +199,14 @@ class _UniqueKeys(yaml.SafeLoader):
                 continue  # "<<: *base": merged keys may be overridden, as YAML says
             key = self.construct_object(key_node, deep=True)
             try:
-                first = seen.setdefault(key, key_node)
+                first = seen.get(key)
             except TypeError:  # an unhashable key: the base class says so
                 break
-            if first is not key_node:
+            if first is not None:  # an alias (*k) of the first key is the same node
                 raise yaml.constructor.ConstructorError(
                     None, None, f"key {str(key)[:40]!r} given twice (first at line "
                     f"{first.start_mark.line + 1})", key_node.start_mark)
+            seen[key] = key_node
         return super().construct_mapping(node, deep=deep)
 
 

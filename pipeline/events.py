@@ -133,7 +133,7 @@ class EventData:
         with zero static gain, which no structure of the table represents: issue 27
         item 6)."""
         peak = self.excursion()
-        if peak > MOVED_SIGMAS * self.noise:
+        if self.noise > 0 and peak > MOVED_SIGMAS * self.noise:
             return (f"the output moved (by up to {peak:.3g}, {peak / self.noise:.0f} noise "
                     f"sigmas) and came back: no final change to read (|y_ss - y0| <= 3 "
                     f"sigma), a response with zero static gain")

@@ -77,18 +77,22 @@ def through_link(path: Path, what: str) -> Path:
     if not path.is_symlink():
         return path
     target = Path(os.path.realpath(path))
+    if target.is_symlink():  # realpath stops inside a loop of links
+        raise UserError(f"{path}: cannot write the {what} (a loop of symbolic links)")
     if target.exists() and not target.is_file():
         raise UserError(f"{path}: cannot write the {what} (a link to {target}, which is not "
                         "a regular file)")
     return target
 
 
-def write_atomic(path: str | os.PathLike, data: bytes, what: str = "file") -> None:
+def write_atomic(path: str | os.PathLike, data: bytes, what: str = "file", *,
+                 through: bool = False) -> None:
     """Write ``data`` to a temporary file beside ``path``, then ``os.replace`` it; the
-    folder is created, a replaced file keeps its mode (a new one gets the umask's), a
-    symbolic link is written through (:func:`through_link`: the link stays), and a
-    failure is one :class:`UserError` line naming ``path`` and ``what`` it is."""
-    path = through_link(Path(path), what)
+    folder is created, a replaced file keeps its mode (a new one gets the umask's), with
+    ``through`` a symbolic link is written through (:func:`through_link`: the link stays;
+    the history and JUnit files, which are shared), and a failure is one
+    :class:`UserError` line naming ``path`` and ``what`` it is."""
+    path = through_link(Path(path), what) if through else Path(path)
     tmp = None
     check_writable(path, what)
     try:

@@ -25,3 +25,11 @@ def test_a_merge_may_override_what_it_merges(tmp_path):
     cfg = load_config(p)
     assert cfg.tuning.rule == "simc" and cfg.tuning.form == "series"
     assert cfg.data.input == "u"
+
+
+def test_an_alias_of_a_key_is_the_same_key(tmp_path):
+    """Review: ``*k`` reuses the first key's node, so the identity test missed it."""
+    p = tmp_path / "c.yaml"
+    p.write_text("name: x\n&k methods: all\n*k : [first_order]\n")
+    with pytest.raises(UserError, match="key 'methods' given twice"):
+        load_config(p)

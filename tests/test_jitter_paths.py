@@ -75,3 +75,29 @@ def test_an_equal_lag_chain_on_jittered_stamps(changes):
     for k in np.flatnonzero(du):
         ref[k:] += du[k] * m.unit_step(t[k:] - t[k])
     assert np.max(np.abs(fast - ref)) <= 1e-9 * np.max(np.abs(ref))
+
+
+def test_a_gap_longer_than_a_chunk_stays_finite(monkeypatch):
+    """Review: one interval longer than the modal span (a 5000 s gap) overflowed the
+    scaled terms into NaN after it; it is stepped directly now, as the loop does."""
+    t = _grid(2000)
+    t[1000:] += 5000.0
+    u = 1.0 + np.repeat(np.random.default_rng(4).normal(size=20), 100)
+    for model in (MODELS[0], MODELS[2], MODELS[5]):
+        fast = engine.simulate_irregular(model, t, u, 1.0, 0.0)
+        with monkeypatch.context() as mp:
+            mp.setattr(engine, "_propagate_modal", lambda *a: None)
+            loop = engine.simulate_irregular(model, t, u, 1.0, 0.0)
+        assert np.all(np.isfinite(fast))
+        assert np.max(np.abs(fast - loop)) <= 1e-10 * np.max(np.abs(loop))
+
+
+def test_the_clustered_exponential_of_a_huge_matrix():
+    """Review: ||M|| above 1e17 overflowed the Taylor powers into NaN."""
+    A, B, _, _ = zoh.state_space(ProcessModel("n_lags", {"K": 1.0, "T": 1e-18, "n": 3}))
+    M = np.zeros((4, 4))
+    M[:3, :3], M[:3, 3:] = A, B
+    steps = np.array([1.0, 2.0, 1e-3, 1.0 + 1e-20])
+    got = zoh.expm_near(M, steps)
+    ref = linalg.expm(M[None] * steps[:, None, None])
+    assert np.all(np.isfinite(got)) and np.allclose(got, ref, rtol=1e-12, atol=1e-12)

@@ -82,3 +82,12 @@ def test_prose_is_still_no_table(tmp_path):
                          f"another sentence {i}\n" for i in range(40)))
     with pytest.raises(UserError, match="cannot tell how the fields are separated"):
         pipeline.load(p, time=0, input=1, output=2)
+
+
+def test_a_header_of_another_width_is_no_banner(tmp_path):
+    """Review: ``time,u,y,`` (a trailing comma) was skipped as a banner and the columns
+    named by position; it is a header of another width, and the error says so."""
+    p = tmp_path / "trailing.csv"
+    p.write_text("time,u,y,\n" + "".join(f"{i},1,2\n" for i in range(30)))
+    with pytest.raises(UserError, match="cannot tell how the fields are separated"):
+        pipeline.load(p, time="time", input="u", output="y")

@@ -16,6 +16,7 @@ def test_an_index_is_no_unit():
     assert split_unit("x(3)") == ("x(3)", None)
     assert split_unit("T [degC]") == ("T", "degC")
     assert split_unit("Zeit (s)") == ("Zeit", "s")
+    assert split_unit("eta [1]") == ("eta", "1")  # a space: a dimensionless unit
 
 
 def test_matrix_columns_name_signals_without_units(tmp_path):

@@ -100,3 +100,18 @@ def test_no_real_log_has_an_outlier():
     for name, (rel, kw) in real_logs.LOGS.items():
         rec = pipeline.load(root / rel, **kw)
         assert find_outliers(rec.u, rec.y)[0].size == 0, name
+
+
+def test_a_delayed_answer_to_a_pulse_is_kept():
+    """Review: a fast plant (T 0.05 s on a 0.1 s grid) with a 0.6 s dead time answers a
+    one-sample pulse six samples late with a one- or two-sample spike; it is the plant,
+    not a glitch, and the gain stays the plant's."""
+    t = np.arange(0.0, 50.0, 0.1)
+    u = np.zeros_like(t)
+    u[[100, 300]] = 1.0
+    y = np.zeros_like(t)
+    for k in (100, 300):  # the held pulse through the lag, sampled: 2 (1 - e^-2), then e^-2 of it
+        y[k + 6], y[k + 7] = 2.0 * (1 - np.exp(-2.0)), 2.0 * (1 - np.exp(-2.0)) * np.exp(-2.0)
+    y += np.random.default_rng(0).normal(0.0, 0.002, t.size)
+    idx, _ = find_outliers(u, y)
+    assert idx.size == 0

@@ -89,3 +89,14 @@ def test_junit_and_history_links_are_written_through(setup):
     assert (tmp / "junit.xml").is_symlink() and (tmp / "history.parquet").is_symlink()
     assert "<testsuites" in (shared / "junit.xml").read_text()
     assert load_history(shared / "history.parquet")["time"].n_unique() == 2
+
+
+def test_a_link_loop_and_a_fifo_are_refused(setup):
+    tmp, cfg, _ = setup
+    (tmp / "a.xml").symlink_to(tmp / "b.xml")
+    (tmp / "b.xml").symlink_to(tmp / "a.xml")
+    line = _refused(["run", str(cfg), "--out", str(tmp / "o"), "--junit", str(tmp / "a.xml")])
+    assert "loop of symbolic links" in line
+    os.mkfifo(tmp / "fifo")
+    line = _refused(["run", str(cfg), "--out", str(tmp / "o"), "--junit", str(tmp / "fifo")])
+    assert "not a regular file" in line

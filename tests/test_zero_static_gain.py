@@ -70,3 +70,12 @@ def test_no_response_at_all_is_not_called_a_return(kind):
         said.update(r for r in reasons if "did not change measurably" in r)
     assert said  # the plain reason, where the output did not move (under 1/f noise the
     # wander is read as a ramp on some seeds: another reason, not a return)
+
+
+def test_a_noise_free_bump_is_no_internal_error():
+    """Review: a noise-free output that moves and comes back divided by its zero noise."""
+    t = np.arange(0.0, 60.0, 0.05)
+    u = _steps(t)
+    y = np.where((t >= 10.0) & (t < 12.5), 1.0, 0.0)
+    res = pipeline.identify(t, u, y)
+    assert not any("internal error" in (f.reason or "") for f in res.fits)

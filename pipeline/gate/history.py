@@ -120,7 +120,7 @@ def append_history(path: str | os.PathLike, results: ResultsDoc,
             else new
         buf = io.BytesIO()
         frame.write_parquet(buf)
-        write_atomic(p, buf.getvalue(), "history")
+        write_atomic(p, buf.getvalue(), "history", through=True)
     return frame
 
 

@@ -125,9 +125,14 @@ def _sniff_after_banner(content: list[tuple[int, str]], path: Path) -> tuple[str
     except UserError as first_error:
         for k in range(1, min(MAX_BANNER, len(lines) - 2) + 1):
             try:
-                return sniff_delimiter(lines[k:k + SAMPLE], str(path)), k
+                found = sniff_delimiter(lines[k:k + SAMPLE], str(path))
             except UserError:
                 continue
+            width = len(split(lines[k], found))
+            if abs(len(split(lines[k - 1], found)) - width) <= 1:
+                break  # the line before splits almost as the table does: a header of
+                # another width (a trailing comma), not a banner; say what was found
+            return found, k
         raise first_error from None
 
 

@@ -79,10 +79,14 @@ class Table:
 def split_unit(name: str) -> tuple[str, str | None]:
     """``"T [°C]"`` -> ``("T", "°C")``; a name without a unit -> ``(name, None)``, and so
     is an index (``result[2]``, a MATLAB matrix's column; ``x(3)``): numbers alone in
-    brackets are a position, not a unit."""
-    m = _UNIT.fullmatch(name.strip())
-    if not m or not m.group(1) or _INDEX.fullmatch((m.group(2) or m.group(3) or "").strip()):
-        return name.strip(), None
+    brackets right after the name are a position; ``eta [1]`` (a space) is a unit."""
+    text = name.strip()
+    m = _UNIT.fullmatch(text)
+    if not m or not m.group(1):
+        return text, None
+    inner = (m.group(2) or m.group(3) or "").strip()
+    if _INDEX.fullmatch(inner) and not text[len(m.group(1))].isspace():
+        return text, None  # result[2]: the bracket right after the name
     return m.group(1), (m.group(2) or m.group(3) or "").strip() or None
 
 

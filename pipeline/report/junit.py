@@ -97,6 +97,11 @@ def refuse_foreign_junit(path: Path) -> None:
     """An existing file at ``path`` that is not a JUnit file this tool wrote is one
     :class:`UserError` line (issue 31: ``--junit`` replaced whatever it named, a config
     or a log included); a missing file, or one of ours from an earlier run, is fine."""
+    if not path.exists():
+        return
+    if not path.is_file():  # a FIFO nobody writes would block the read forever
+        raise UserError(f"{path}: exists and is not a regular file; expected a JUnit file "
+                        "path (give another --junit path)")
     try:
         with open(path, "rb") as fh:
             head = fh.read(4096)
@@ -115,7 +120,7 @@ def write_junit(path: str | os.PathLike, current: ResultsDoc,
     """Write :func:`junit_xml` to ``path`` atomically (temporary file, then rename)."""
     p = Path(path)
     write_atomic(p, junit_xml(current, comparison, time=time, times=times).encode("utf-8"),
-                 "JUnit file")
+                 "JUnit file", through=True)
     return p
 
 

@@ -315,11 +315,13 @@ def expm_near(M: np.ndarray, steps: np.ndarray) -> np.ndarray:
     near = np.abs(d) * norm <= NEAR_REACH
     res = np.empty((h.size, k, k))
     if np.any(near):
+        # (M/norm)^j/j! and (d norm)^j: neither overflows whatever ||M|| is
+        unit = M / norm if norm > 0 else M
         powers = np.empty((NEAR_TERMS + 1, k, k))
         powers[0] = np.eye(k)
         for j in range(1, NEAR_TERMS + 1):
-            powers[j] = powers[j - 1] @ M / j
-        dn = d[near]
+            powers[j] = powers[j - 1] @ unit / j
+        dn = d[near] * (norm if norm > 0 else 1.0)
         coeff = dn[:, None] ** np.arange(NEAR_TERMS + 1)[None, :]
         taylor = np.tensordot(coeff, powers, axes=(1, 0))
         eb = linalg.expm(M[None, :, :] * base[:, None, None])
