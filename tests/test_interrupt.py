@@ -88,14 +88,19 @@ def _unchanged_or_complete(before: dict, after: dict, delay: float) -> dict:
 
 def test_sigterm_at_random_points_leaves_nothing_behind(nightly):
     d, cfg, out = nightly
-    # the points are drawn over the length of one whole run measured here, now: under a
+    # the points are drawn over the length of a whole run measured here, now: under a
     # loaded CI host the imports before the handler alone took longer than a fixed 2.5 s
-    # (seen: 0 of 10 signals inside the run)
-    began = time.monotonic()
-    whole_run = start(d, cfg, out)
-    whole_run.communicate(timeout=120)
-    assert whole_run.returncode == 0
-    whole = time.monotonic() - began
+    # (seen: 0 of 10 signals inside the run). The shorter of two runs: the first is cold
+    # (7.4 s once, where the runs after it took under 6 s, so that 6 of 10 points fell
+    # after their end)
+    runs = []
+    for _ in range(2):
+        began = time.monotonic()
+        whole_run = start(d, cfg, out)
+        whole_run.communicate(timeout=120)
+        assert whole_run.returncode == 0
+        runs.append(time.monotonic() - began)
+    whole = min(runs)
     before = snapshot(out)
     delays = np.random.default_rng(13).uniform(0.3, 0.9, TRIES) * whole
     interrupted = 0
