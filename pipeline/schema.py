@@ -289,6 +289,19 @@ class ReducedDoc(_Doc):
 TuningVerdictName = Literal["robust", "fragile", "unstable_in_interval", "unchecked"]
 
 
+class ReplacedDoc(_Doc):
+    """The rule's default settings (``tau_c`` not given) that were fragile or unstable
+    over the intervals, so the tuning gives the robust choice of ``tau_c`` instead: their
+    ``tau_c`` (s), controller, verdict, its reasons and their worst-case Ms (null:
+    unstable on some parameter set)."""
+
+    tau_c: float
+    controller: ControllerDoc
+    verdict: TuningVerdictName
+    reasons: list[str] = Field(default_factory=list)
+    worst_ms: float | None = None
+
+
 class TuningDoc(_Doc):
     """The controller tuned from the recommended model (``status`` "not_applicable" with the
     ``reason`` when the rule does not apply): the rule and what it read, the settings in
@@ -322,6 +335,7 @@ class TuningDoc(_Doc):
     verdict: TuningVerdictName | None = None
     reasons: list[str] = Field(default_factory=list)
     alternative: AlternativeDoc | None = None
+    replaced: ReplacedDoc | None = None
     notes: list[str] = Field(default_factory=list)
     response: LoopDoc | None = None
     worst_response: LoopDoc | None = None

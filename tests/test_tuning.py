@@ -21,6 +21,8 @@ from pipeline.run import analysis_options
 from pipeline.tuning import TuningOptions, parameter_sets, tune, worst_case
 
 PLANT = ProcessModel("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0})
+#: SIMC's tau_c = theta asked for by name: kept whatever the check over the interval says
+TIGHT = TuningOptions(tau_c="tight")
 
 
 def box(rel_k: float, rel_t: float, rel_d: float) -> dict[str, tuple[float, float]]:
@@ -33,7 +35,7 @@ def test_verdict_follows_the_worst_case_over_the_interval():
     assert tight.verdict == "robust" and tight.worst.ms <= 2.0
     # tau = 10 theta: Ti = 8 theta < tau, Ms a little above the 1.59 of tau <= 8 theta
     assert 1.59 < tight.margins.ms < 1.65
-    wide = tune(PLANT, ci95=box(0.10, 0.10, 0.20))
+    wide = tune(PLANT, TIGHT, ci95=box(0.10, 0.10, 0.20))
     assert wide.verdict == "fragile" and wide.worst.ms > 2.0 and wide.worst.stable
     # the worst corner: the largest gain and dead time, the shortest lag
     assert wide.worst.params == {"K": 2.2, "T": 9.0, "delay": 1.2}
@@ -48,18 +50,51 @@ def test_verdict_follows_the_worst_case_over_the_interval():
     # a dead time that may be three times longer destabilises SIMC's tight PI (its delay
     # margin is about twice the dead time)
     assert tune(PLANT).margins.delay_margin == pytest.approx(2.0, rel=0.02)
-    huge = tune(PLANT, ci95={"delay": (0.5, 3.5)})
+    huge = tune(PLANT, TIGHT, ci95={"delay": (0.5, 3.5)})
     assert huge.verdict == "unstable_in_interval" and huge.worst.stable_fraction < 1.0
     # the long end of the dead time's interval is the one unstable corner; no draws
     assert (huge.worst.n_corners, huge.worst.unstable_corners, huge.worst.unstable_draws) \
         == (2, 1, 0)
     assert "1 of the 2 corners" in huge.reasons[0]
+    assert wide.replaced is None and huge.replaced is None
+
+
+def test_default_tau_c_gives_way_to_the_robust_one_over_a_wide_interval():
+    # tau_c not given: SIMC's tau_c = theta is fragile (worst-case Ms above 2) or unstable
+    # over the interval, so the settings given are the robust choice, the default kept
+    # beside them with its verdict
+    ci = box(0.10, 0.10, 0.20)
+    tight = tune(PLANT, TIGHT, ci95=ci)
+    t = tune(PLANT, ci95=ci)
+    assert t.verdict == "robust" and t.alternative is None
+    assert t.settings.tau_c < tight.alternative.tau_c  # the limit 2.0, not the target 1.7
+    assert t.worst.ms == pytest.approx(2.0, abs=0.02) and t.worst.ms <= 2.0
+    r = t.replaced
+    assert r.verdict == "fragile" and r.settings.tau_c == pytest.approx(1.0)
+    assert r.settings.controller == tight.controller and r.worst_ms == pytest.approx(
+        tight.worst.ms)
+    assert "default tau_c (1 s" in t.reasons[0] and "fragile" in t.reasons[0]
+    # the settings' spread: Kc = T/(K (tau_c + theta)) per set, with the chosen tau_c
+    # and with the default tau_c = theta, the union of the two (how far the data
+    # determine what the tuning gives)
+    tc = t.settings.tau_c
+    assert t.spread["Kc"] == (
+        pytest.approx(min(9.0 / (2.2 * (tc + 1.2)), 9.0 / (2 * 2.2 * 1.2))),
+        pytest.approx(max(11.0 / (1.8 * (tc + 0.8)), 11.0 / (2 * 1.8 * 0.8))))
+    # unstable over the interval: replaced too; the worst-case Ms of the default is inf
+    huge = tune(PLANT, ci95={"delay": (0.5, 3.5)})
+    assert huge.verdict == "robust" and huge.replaced.verdict == "unstable_in_interval"
+    assert huge.replaced.worst_ms == math.inf and huge.worst.stable
+    # a narrow interval keeps the default; so do a tau_c in seconds and an Ms target
+    assert tune(PLANT, ci95=box(0.01, 0.01, 0.01)).replaced is None
+    assert tune(PLANT, TuningOptions(tau_c=1.0), ci95=ci).verdict == "fragile"
+    assert tune(PLANT, TuningOptions(ms_target=1.9), ci95=ci).replaced is None
 
 
 def test_settings_spread_over_the_interval():
     # SIMC PI on K e^(-theta s)/(T s + 1), tau_c = theta: Kc = T/(2 K theta), Ti = min(T,
     # 8 theta); over the box the extremes sit at its corners
-    t = tune(PLANT, ci95=box(0.10, 0.10, 0.20))
+    t = tune(PLANT, TIGHT, ci95=box(0.10, 0.10, 0.20))
     lo, hi = t.spread["Kc"]
     assert lo == pytest.approx(9.0 / (2 * 2.2 * 1.2)) and hi == pytest.approx(
         11.0 / (2 * 1.8 * 0.8))
@@ -76,8 +111,11 @@ def test_no_interval_or_untrusted_model_is_never_robust():
              why_not="the model is flagged closed_loop_suspected")
     assert t.verdict == "unchecked" and "closed_loop_suspected" in t.reasons[0]
     # but an untrusted model's fragile settings are still called fragile
-    assert tune(PLANT, ci95=box(0.1, 0.1, 0.2), trusted=False, why_not="x").verdict \
-        == "fragile"
+    assert tune(PLANT, TIGHT, ci95=box(0.1, 0.1, 0.2), trusted=False, why_not="x"
+                ).verdict == "fragile"
+    # and the robust choice in their place is unchecked, not robust
+    t = tune(PLANT, ci95=box(0.1, 0.1, 0.2), trusted=False, why_not="x")
+    assert t.replaced.verdict == "fragile" and t.verdict == "unchecked"
 
 
 def test_ms_target_chooses_the_fastest_tau_c_that_keeps_the_worst_case():

@@ -11,6 +11,7 @@ from ..schema import (
     LoopDoc,
     MarginsDoc,
     ReducedDoc,
+    ReplacedDoc,
     StepMetricsDoc,
     TuningDoc,
     WorstCaseDoc,
@@ -112,6 +113,15 @@ def _alternative_doc(t: Tuning) -> AlternativeDoc | None:
                           worst_ms=float(t.alternative_ms))
 
 
+def _replaced_doc(t: Tuning) -> ReplacedDoc | None:
+    r = t.replaced
+    if r is None or r.settings.tau_c is None:
+        return None
+    return ReplacedDoc(tau_c=float(r.settings.tau_c),
+                       controller=_controller_doc(r.settings.controller), verdict=r.verdict,
+                       reasons=list(r.reasons), worst_ms=_num(r.worst_ms))
+
+
 def tuning_doc(rt: RecordTuning | None) -> TuningDoc | None:
     """The results.json form of a record's tuning."""
     if rt is None:
@@ -140,5 +150,5 @@ def tuning_doc(rt: RecordTuning | None) -> TuningDoc | None:
                                 n_corners=w.n_corners, unstable_corners=w.unstable_corners,
                                 unstable_draws=w.unstable_draws) if w else None,
         verdict=t.verdict, reasons=list(t.reasons), notes=list(t.notes),
-        alternative=_alternative_doc(t),
+        alternative=_alternative_doc(t), replaced=_replaced_doc(t),
         response=_loop_doc(t.response, rt), worst_response=_loop_doc(t.worst_response, rt))

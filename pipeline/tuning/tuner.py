@@ -13,6 +13,14 @@ has no interval to check over or its own verdict does not allow trust):
   Åström & Hägglund, *Advanced PID Control*, 2006, Section 4.3: Ms in 1.2-2.0 is the
   reasonable range, above 2 a loop is poorly damped and sensitive to model errors);
 - ``robust``: stable on every set and the worst-case Ms at most 2.0.
+
+When ``tau_c`` is not given and the rule's default settings are fragile or unstable over
+the interval, the tuning gives the same rule with the fastest ``tau_c`` whose worst case
+keeps Ms at :data:`FRAGILE_MS` instead (the settings an engineer can enter on a loop the
+data do not pin down), and keeps the default ones in ``replaced`` with their verdict:
+the end-to-end benchmark's plants identified under AR(1) noise and first-order models
+with a dead time of a few milliseconds got unstable default settings, whose true loop
+was poorly damped (``benchmarks/tuning_e2e.py``). ``tau_c: "tight"`` keeps the default.
 """
 
 from __future__ import annotations
@@ -53,7 +61,9 @@ class TuningOptions:
     instrument ranges, for a gain in %/%); ``u_limits``: the actuator's limits in input
     units (None: the range the log saw); ``simulate``: the loop's responses;
     ``sample_time``: the controller's sample period (half of it is added to the dead
-    time, Skogestad 2003 Section 3.3; 0: a continuous controller)."""
+    time, Skogestad 2003 Section 3.3; 0: a continuous controller). With ``tau_c`` None and
+    no ``ms_target``, settings that are fragile or unstable over the interval are replaced
+    by the robust choice of tau_c (the module docstring)."""
 
     rule: RuleName = "simc"
     kind: KindChoice = "auto"
@@ -67,6 +77,17 @@ class TuningOptions:
     simulate: bool = True
     sample_time: float = 0.0
     n_draws: int = N_DRAWS
+
+
+@dataclass(frozen=True)
+class Replaced:
+    """The rule's default settings that a tuning did not give: their verdict, its
+    reasons and their worst-case Ms over the interval (inf: unstable somewhere)."""
+
+    settings: RuleSettings
+    verdict: TuningVerdict
+    reasons: tuple[str, ...]
+    worst_ms: float
 
 
 @dataclass(frozen=True)
@@ -93,6 +114,9 @@ class Tuning:
     #: for AMIGO, or when no tau_c reaches it)
     alternative: RuleSettings | None = None
     alternative_ms: float | None = None
+    #: the rule's default settings when they were fragile or unstable over the interval
+    #: and ``settings`` are the robust choice instead (``tau_c`` not given)
+    replaced: Replaced | None = None
 
     @property
     def controller(self) -> Controller:
@@ -268,17 +292,33 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
         settings = _tau_c_for_target(model, opt, sets or [_nominal(model)], h)
     else:
         settings = tune_rule(model, opt.rule, opt.kind, opt.tau_c, h)
-    c = settings.controller
-    margins = nominal_margins(model, c)
     corners = n_corners(model, ci95 or {})
-    worst = worst_case(model, c, sets, corners) if sets and len(sets) > 1 else None
-    verdict, reasons = _verdict(margins, worst, trusted, why_not or (
-        "the model has no interval to check the settings over" if worst is None else ""))
-    notes = list(settings.notes)
+    why = why_not or ("the model has no interval to check the settings over"
+                      if not sets or len(sets) < 2 else "")
+    margins, worst, verdict, reasons = _evaluate(model, settings.controller, sets, corners,
+                                                 trusted, why)
     alt, alt_ms = _alternative(model, opt, sets, h, verdict)
-    if alt is not None:
+    held = _held(model, opt, sets, h) if alt is not None and opt.tau_c is None else None
+    replaced = None
+    if held is not None:
+        # the rule's default tau_c was not asked for by name: give the settings that hold
+        # over the interval, and say what the default would have been
+        replaced = Replaced(settings, verdict, tuple(reasons),
+                            worst.ms if worst is not None and worst.stable else math.inf)
+        settings, alt, alt_ms = held, None, None
+        margins, worst, verdict, reasons = _evaluate(model, settings.controller, sets,
+                                                     corners, trusted, why)
+        reasons.insert(0, f"the rule's default tau_c ({replaced.settings.tau_c:.4g} s: "
+                       f"{_settings_text(replaced.settings.controller)}) is "
+                       f"{replaced.verdict.replace('_', ' ')} ({replaced.reasons[0]}); "
+                       f"tau_c = {settings.tau_c:.4g} s is the fastest whose worst case "
+                       f"keeps Ms at or below {FRAGILE_MS:g} (tau_c: tight keeps the "
+                       f"default, tau_c: robust aims at {MS_TARGET:g})")
+    elif alt is not None:
         reasons.append(f"tau_c = {alt.tau_c:.4g} s (tau_c: robust) keeps the worst-case Ms "
                        f"at {alt_ms:.3g}: {_settings_text(alt.controller)}")
+    c = settings.controller
+    notes = list(settings.notes)
     resp = worst_resp = None
     if opt.simulate and margins.stable:
         r = 1.0 if r_step is None else float(r_step)
@@ -291,8 +331,33 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
     return Tuning(model=model, settings=settings, margins=margins, worst=worst,
                   verdict=verdict, reasons=tuple(reasons), options=opt, response=resp,
                   worst_response=worst_resp, notes=tuple(notes),
-                  spread=settings_spread(model, settings, opt, sets or [], h),
-                  alternative=alt, alternative_ms=alt_ms)
+                  spread=_spread(model, settings, opt, sets or [], h, replaced),
+                  alternative=alt, alternative_ms=alt_ms, replaced=replaced)
+
+
+def _spread(model: ProcessModel, settings: RuleSettings, opt: TuningOptions, sets,
+            h: float, replaced: Replaced | None) -> dict[str, tuple[float, float]]:
+    """:func:`settings_spread`; for settings held in place of the default ones, the
+    union of the held tau_c's spread and the default's: a model anywhere inside the
+    interval, tuned again, gives settings between the two (the interval's width decides
+    how far tau_c is held back, so fresh noise moves the held settings more than the
+    rule's own; the gate reads this as their noise)."""
+    out = settings_spread(model, settings, opt, sets, h, chosen=replaced is not None)
+    if replaced is None:
+        return out
+    default = settings_spread(model, replaced.settings, opt, sets, h)
+    return {k: (min(lo, default[k][0]), max(hi, default[k][1])) if k in default
+            else (lo, hi) for k, (lo, hi) in out.items()}
+
+
+def _evaluate(model: ProcessModel, c: Controller, sets, corners: int, trusted: bool,
+              why_not: str) -> tuple[Margins, WorstCase | None, TuningVerdict, list[str]]:
+    """The settings' margins on the model, their worst case over ``sets`` and the
+    verdict with its reasons."""
+    margins = nominal_margins(model, c)
+    worst = worst_case(model, c, sets, corners) if sets and len(sets) > 1 else None
+    verdict, reasons = _verdict(margins, worst, trusted, why_not)
+    return margins, worst, verdict, reasons
 
 
 def _alternative(model: ProcessModel, opt: TuningOptions, sets, h: float,
@@ -309,6 +374,18 @@ def _alternative(model: ProcessModel, opt: TuningOptions, sets, h: float,
     return alt, worst_case(model, alt.controller, sets).ms
 
 
+def _held(model: ProcessModel, opt: TuningOptions, sets, h: float) -> RuleSettings | None:
+    """The rule's settings in place of its default ones that are fragile or unstable over
+    the interval: the fastest tau_c whose worst-case Ms is at most :data:`FRAGILE_MS`,
+    the verdict's own limit, so that the settings are continuous in the data (a default
+    whose worst case is just below the limit and one just above it give nearly the same
+    settings: fresh noise does not make the gate's tuned Kc jump)."""
+    try:
+        return _tau_c_for_target(model, replace(opt, ms_target=FRAGILE_MS), sets, h)
+    except ValueError:
+        return None
+
+
 def _settings_text(c: Controller) -> str:
     parts = [f"Kc {abs(c.Kc):.4g}"]
     if math.isfinite(c.Ti):
@@ -319,9 +396,11 @@ def _settings_text(c: Controller) -> str:
 
 
 def settings_spread(model: ProcessModel, settings: RuleSettings, opt: TuningOptions,
-                    sets, h: float) -> dict[str, tuple[float, float]]:
+                    sets, h: float, *, chosen: bool = False
+                    ) -> dict[str, tuple[float, float]]:
     """How far the data determine the settings: the same rule (with the same controller
-    kind; with ``tau_c`` fixed when it was chosen for an Ms target or given in seconds,
+    kind; with ``tau_c`` fixed when it was chosen for an Ms target (``chosen``: in place of
+    the rule's default) or given in seconds,
     else re-derived from each set's dead time) applied to every parameter set inside the
     model's intervals (the box corners and covariance draws the worst case is taken
     over), the smallest and largest ``Kc``, ``Ti``, ``Td``. The regression gate reads it
@@ -329,7 +408,7 @@ def settings_spread(model: ProcessModel, settings: RuleSettings, opt: TuningOpti
     half-widths are not explained by the data), the report as their uncertainty."""
     if len(sets) < 3:
         return {}
-    fixed = settings.tau_c if (opt.ms_target is not None or isinstance(
+    fixed = settings.tau_c if (chosen or opt.ms_target is not None or isinstance(
         opt.tau_c, int | float)) else opt.tau_c
     kind = settings.controller.kind
     rows = []
