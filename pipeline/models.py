@@ -18,7 +18,14 @@ integrator      K e^{-delay s} / s                                 K, delay
 integrator_lag  K e^{-delay s} / (s (T s + 1))                     K, T, delay
 zero_two_lags   K (Tz s + 1) e^{-delay s} / ((T1 s + 1)(T2 s + 1))  K, Tz, T1, T2, delay
 lead_lag        K (Tz s + 1) e^{-delay s} / (T s + 1)              K, Tz, T, delay
+lag_second_order  K wn^2 e^{-delay s} / ((T s + 1)(s^2 + 2 zeta wn s + wn^2))
+                                                                   K, T, zeta, wn, delay
 ==============  =================================================  ======================
+
+``lag_second_order`` is a lag behind a lightly damped pair (``zeta < 1``: Åström &
+Hägglund's oscillatory benchmark plant, a flexible drive behind a motor's lag). It is
+fitted only to a response that rings (``rings=True``): elsewhere its pair is not
+determined by the data.
 
 An integrator's gain is per time unit (:meth:`Parameter.unit`, ``integrating=True``);
 ``Tz < 0`` is an inverse response; a lead-lag's step response jumps to ``K Tz/T`` at the
@@ -40,6 +47,7 @@ from scipy.special import gammainc
 
 from .responses import (
     integrator_lag_step,
+    lag_pair_step,
     lead_lag_step,
     second_order_step,
     two_lag_impulse,
@@ -164,7 +172,9 @@ class Structure:
     ramps, the gain is per time unit) has no residence time; its time scale is how far
     the final ramp lags an ideal integrator, ``T + delay`` (where the ramp's asymptote
     crosses the initial level). ``bounds``: physical limits of each parameter
-    (refinement searches inside them).
+    (refinement searches inside them). ``rings``: the structure holds a lightly damped
+    pair that only a ringing response determines, and is fitted only to one
+    (:func:`pipeline.methods.second_order.light_ring`).
     """
 
     name: str
@@ -178,6 +188,7 @@ class Structure:
     lags: Callable[[Params], list[float]] = lambda p: []
     bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     integrating: bool = False
+    rings: bool = False
 
     @property
     def dynamics(self) -> tuple[str, ...]:
@@ -186,6 +197,8 @@ class Structure:
 
 
 _POSITIVE = (0.0, math.inf)
+#: The largest damping ratio of ``lag_second_order``'s pair.
+ZETA_MAX = 0.99
 _BOUNDS_DELAY = {"K": (-math.inf, math.inf), "delay": (0.0, math.inf)}
 
 STRUCTURES: dict[str, Structure] = {s.name: s for s in (
@@ -281,6 +294,26 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
         lags=lambda p: [p["T"]],
         bounds={**_BOUNDS_DELAY, "Tz": (-math.inf, math.inf), "T": _POSITIVE},
     ),
+    Structure(
+        "lag_second_order", ("K", "T", "zeta", "wn", "delay"),
+        "K wn^2 e^{-delay s}/((T s+1)(s^2+2 zeta wn s+wn^2))",
+        step=lambda p, t: lag_pair_step(t, p["T"], p["zeta"], p["wn"]),
+        # (T s + 1)(s^2/wn^2 + 2 zeta s/wn + 1): the gain alone in the numerator
+        num_den=lambda p: ([p["K"]], [p["T"] / p["wn"] ** 2,
+                                      (2 * p["zeta"] * p["T"] * p["wn"] + 1) / p["wn"] ** 2,
+                                      p["T"] + 2 * p["zeta"] / p["wn"], 1.0]),
+        text=lambda p, d: (f"{_g(p['K'] * p['wn'] ** 2, d)}/(({_g(p['T'], d)}s+1)(s^2+"
+                           f"{_g(2 * p['zeta'] * p['wn'], d)}s+{_g(p['wn'] ** 2, d)}))"),
+        # the lag's time constant and the pair's time scale (as second_order's)
+        time_scale=lambda p: abs(p["T"]) + (max(2.0 * p["zeta"], 1.0) / p["wn"]
+                                            if p["wn"] > 0 else math.nan),
+        order_class=lambda p: "nth",
+        lags=lambda p: [p["T"]],
+        # a lightly damped pair: zeta stays clear of 1 (a critically damped pair is two
+        # lags, which two_lags and n_lags hold, and the closed form divides by wd)
+        bounds={**_BOUNDS_DELAY, "T": _POSITIVE, "zeta": (0.0, ZETA_MAX), "wn": _POSITIVE},
+        rings=True,
+    ),
 )}
 
 
@@ -348,7 +381,7 @@ class ProcessModel:
         return float(self.spec.time_scale(self.params))
 
     def lags(self) -> list[float]:
-        """Real time constants of the model, when it is a chain of real lags."""
+        """Real time constants of the model's lags (an underdamped pair has none)."""
         return [float(v) for v in self.spec.lags(self.params)]
 
     # -- responses ----------------------------------------------------------------------

@@ -33,6 +33,34 @@ def second_order_step(t: np.ndarray, zeta: float, wn: float) -> np.ndarray:
     return two_lag_step(t, 1 / (wn * (zeta - r)), 1 / (wn * (zeta + r)))
 
 
+#: A damping ratio this close to 1 is taken as this far below it in
+#: :func:`lag_pair_step` (the closed form divides by the damped frequency; the step
+#: response moves by about this much).
+PAIR_ZETA_GAP = 1e-7
+
+
+def lag_pair_step(t: np.ndarray, T: float, zeta: float, wn: float) -> np.ndarray:
+    """Unit step response of ``wn^2/((T s+1)(s^2+2 zeta wn s+wn^2))`` with ``zeta < 1``: a
+    lag behind a lightly damped pair. Partial fractions: ``1 + A e^(-t/T) + e^(-zeta wn
+    t) (B cos(wd t) + C sin(wd t))`` with ``A = -(wn T)^2/(1 - 2 zeta wn T + (wn T)^2)``
+    (the residue at ``s = -1/T``; the denominator is ``(wn T - zeta)^2 + 1 - zeta^2 >
+    0``), ``B = -1 - A`` (``y(0) = 0``) and ``C = (A/T + zeta wn B)/wd`` (``y'(0) = 0``;
+    ``y''(0) = 0`` follows, the relative degree being 3), ``wd = wn sqrt(1 - zeta^2)``.
+    ``T = 0`` is the pair alone (:func:`second_order_step`)."""
+    t = np.asarray(t, dtype=np.float64)
+    if T <= 0:
+        return second_order_step(t, zeta, wn)
+    zeta = min(float(zeta), 1.0 - PAIR_ZETA_GAP)
+    wT = wn * T
+    A = -wT * wT / ((wT - zeta) ** 2 + 1.0 - zeta * zeta)
+    B = -1.0 - A
+    sigma = zeta * wn
+    wd = wn * math.sqrt(1.0 - zeta * zeta)
+    C = (A / T + sigma * B) / wd
+    decay = np.exp(-sigma * t)
+    return 1.0 + A * np.exp(-t / T) + decay * (B * np.cos(wd * t) + C * np.sin(wd * t))
+
+
 def two_lag_impulse(t: np.ndarray, T1: float, T2: float) -> np.ndarray:
     """Impulse response of 1/((T1 s+1)(T2 s+1)) (the derivative of :func:`two_lag_step`)."""
     T1, T2 = max(T1, T2), min(T1, T2)

@@ -20,6 +20,7 @@ PARAMS = {
     "integrator_lag": {"K": 0.3, "T": 4.0},
     "zero_two_lags": {"K": 1.2, "Tz": -2.0, "T1": 6.0, "T2": 2.0},
     "lead_lag": {"K": 1.2, "Tz": 3.0, "T": 6.0},
+    "lag_second_order": {"K": 0.9, "T": 3.0, "zeta": 0.15, "wn": 2.0},
 }
 EXTRA = [
     ProcessModel("second_order", {"K": 0.8, "zeta": 1.0, "wn": 1.0}),  # critically damped

@@ -1,4 +1,5 @@
-"""The structure table's new entries (integrator, integrator_lag, zero_two_lags, lead_lag):
+"""The structure table's new entries (integrator, integrator_lag, zero_two_lags, lead_lag,
+lag_second_order):
 complete entries, closed forms against python-control, exact ZOH simulation on both
 simulate paths, and the tables' readers (baseline gate, history, report)."""
 
@@ -24,8 +25,12 @@ NEW = {
     "integrator_lag": {"K": 0.5, "T": 4.0},
     "zero_two_lags": {"K": 2.0, "Tz": -3.0, "T1": 8.0, "T2": 2.0},
     "lead_lag": {"K": 2.0, "Tz": 6.0, "T": 3.0},
+    "lag_second_order": {"K": 1.5, "T": 2.0, "zeta": 0.1, "wn": 1.5},
 }
 EXTRA = [
+    # the most damped pair, its lag at 1/wn
+    ProcessModel("lag_second_order", {"K": 1.0, "T": 0.5, "zeta": 0.99, "wn": 2.0}),
+    ProcessModel("lag_second_order", {"K": -2.0, "T": 8.0, "zeta": 0.6, "wn": 3.0}),
     ProcessModel("zero_two_lags", {"K": -1.5, "Tz": 4.0, "T1": 2.0, "T2": 0.5}),  # lead
     ProcessModel("zero_two_lags", {"K": 1.0, "Tz": -2.0, "T1": 3.0, "T2": 3.0}),  # equal lags
     ProcessModel("lead_lag", {"K": 1.0, "Tz": -1.0, "T": 2.0}),  # jumps the wrong way

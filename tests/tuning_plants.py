@@ -215,7 +215,8 @@ def true_margins(plant: BenchmarkPlant, controller: Controller):
 def run_case(plant_name: str, kind: str, seed: int) -> dict:
     """One step test identified, tuned (SIMC on the recommended model) and checked on the
     true plant: a row of plain values (the model, its verdict, the controller, the
-    tuning's verdict and nominal / worst-case Ms, the true stability and Ms, seconds)."""
+    tuning's verdict and nominal / worst-case Ms, the true stability and Ms, seconds;
+    ``smooth_flags``: the flags of the first-order refinement on the same event)."""
     plant = PLANTS[plant_name]
     t, u, y = step_test(plant, kind, seed)
     t0 = time.perf_counter()
@@ -229,6 +230,8 @@ def run_case(plant_name: str, kind: str, seed: int) -> dict:
                    params={k: float(v) for k, v in fit.model.params.items()},
                    model_verdict=fit.verdict,
                    flags=[f.code for f in (*fit.flags, *res.flags)])
+        smooth = res.fit("lsq_first_order", fit.event, ())
+        row["smooth_flags"] = [f.code for f in smooth.flags] if smooth is not None else []
     rt = res.tuning
     tu = rt.tuning if rt is not None else None
     if tu is None:

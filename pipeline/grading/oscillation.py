@@ -11,6 +11,7 @@ import weakref
 import numpy as np
 
 from ..fit import Fit, Flag
+from ..methods import light_ring
 from ..models import delayed_step
 from ..record import in_time_unit
 from ..results import RecordResult
@@ -18,21 +19,15 @@ from ..results import RecordResult
 #: A model overshooting less than this share of the oscillation the data show misses it.
 MISSED_OVERSHOOT = 0.5
 
-#: A ring is lightly damped when its valley/peak decay gives a damping ratio below this
-#: (or the valley is as deep as the peak, as behind a lag). One overshoot that barely
-#: dips below the final value is not a ring: the DC motor of daniw/rt-l overshoots by
-#: 1.7 % and its valley gives zeta 0.61 (valley/peak 0.09); a zeta-0.1 pair behind a 1 s
-#: lag overshoots by 9 % with valley/peak 1.08.
-LIGHT_DAMPING = 0.5
-
 
 def oscillation_unmodelled(fit: Fit, result: RecordResult) -> Flag | None:
     """The record's step responses oscillate about their final value and the model's own
     step response does not (or overshoots less than :data:`MISSED_OVERSHOOT` of the
     largest oscillation read) and the ring is lightly damped (its valley/peak decay gives
-    a damping ratio below :data:`LIGHT_DAMPING`): a lightly damped mode behind a lag, say, that no
-    overdamped structure represents, whatever its fit error (a warning; a tuning from it
-    is never "robust", :data:`pipeline.tuning.UNTRUSTED_FLAGS`). The oscillation is the
+    a damping ratio below :data:`pipeline.methods.second_order.LIGHT_DAMPING`): a lightly
+    damped mode behind a lag, say, that no overdamped structure represents, whatever its
+    fit error (a warning; a tuning from it is never "robust",
+    :data:`pipeline.tuning.UNTRUSTED_FLAGS`). The oscillation is the
     one ``second_order_overshoot`` reads on any step event, with its significance tests (an
     overshoot of 3 and a valley of 2 noise sigmas, a rise that agrees with the period:
     :func:`pipeline.methods.second_order.check_oscillation`)."""
@@ -47,8 +42,7 @@ def oscillation_unmodelled(fit: Fit, result: RecordResult) -> Flag | None:
     own = float(np.max(delayed_step(fit.model.spec, fit.model.params, t))) - 1.0
     if not (math.isfinite(seen) and seen > 0 and own < MISSED_OVERSHOOT * seen):
         return None
-    zeta_decay = reading.diagnostics.get("zeta_ratio")
-    if zeta_decay is not None and zeta_decay >= LIGHT_DAMPING:
+    if not light_ring(reading):
         return None
     rec = result.record
     period = float(reading.diagnostics.get("period", math.nan))

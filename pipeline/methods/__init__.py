@@ -15,6 +15,7 @@ for _m in pkgutil.iter_modules(__path__):
 
 from .base import moving_the_other_way, undershoot  # noqa: E402 (after the registrations)
 from .lsq import event_fit  # noqa: E402
+from .second_order import light_ring  # noqa: E402
 
 #: Display order: DESIGN.md's catalogue (registration order is the file listing).
 CATALOGUE = ["first_order", "first_order_two_point", "first_order_impulse",
@@ -42,5 +43,5 @@ def select_methods(requested: list[str] | str | None, event_kind: str) -> list[s
     return list(requested)
 
 
-__all__ = ["REGISTRY", "MethodInfo", "MethodResult", "event_fit", "identify", "method_ids",
-           "moving_the_other_way", "register", "select_methods", "undershoot"]
+__all__ = ["REGISTRY", "MethodInfo", "MethodResult", "event_fit", "identify", "light_ring",
+           "method_ids", "moving_the_other_way", "register", "select_methods", "undershoot"]

@@ -7,6 +7,7 @@ steps and pulses alike (the measured input drives the model, whatever its shape)
 
 from __future__ import annotations
 
+import math
 import weakref
 from collections.abc import Callable, Sequence
 
@@ -26,6 +27,7 @@ from ..refine import (
 )
 from .base import input_change
 from .registry import ANY_EVENT, REGISTRY, MethodResult, identify, register
+from .second_order import light_ring, ring_behind_lag
 
 #: The last event the graphical starts were computed for: ``identify(ev, "lsq_...")`` for
 #: each structure on the same event object reuses them (an event is immutable).
@@ -47,6 +49,39 @@ def graphical_models(ev: EventData) -> list[ProcessModel]:
     return list(out)
 
 
+def ring_starts(ev: EventData, models: Sequence[ProcessModel], structure: str
+                ) -> list[ProcessModel]:
+    """Starts of a ``rings`` structure (``lag_second_order``) on an event whose step
+    response rings (NotApplicable otherwise: a pair the response does not show is not
+    determined; :func:`~pipeline.methods.second_order.light_ring`, or a ring the rise
+    check refused behind a lag, :func:`~pipeline.methods.second_order.ring_behind_lag`):
+    the ring's damping (its valley/peak decay, 0.1 when the valley is as deep as the
+    peak; the decay of its two peaks behind a lag) and natural frequency (``wn = 2 pi/(P
+    sqrt(1 - zeta^2))`` from the period ``P``; seed 001 "Determining the parameters")
+    with the lag and dead time of every given model that has a lag (a lag model reads
+    the slow part of the response), and with a lag of half the period behind no dead
+    time."""
+    reading = identify(ev, "second_order_overshoot") if ev.kind == "step" else None
+    if light_ring(reading):
+        z = reading.diagnostics.get("zeta_ratio")
+        zeta = float(z) if z is not None else 0.1
+        period = float(reading.diagnostics["period"])
+    else:
+        ring = ring_behind_lag(ev)
+        if ring is None:
+            raise NotApplicable("the response does not ring (no lightly damped oscillation "
+                                "above the noise): a lag behind a lightly damped pair is "
+                                "not determined by it")
+        zeta, period = ring
+    wn = 2.0 * math.pi / (period * math.sqrt(1.0 - zeta * zeta))
+    K = ev.dy / ev.du
+    lags = {(round(m.lags()[0], 12), round(m.delay, 12)) for m in models
+            if m.lags() and m.lags()[0] > 0 and not m.spec.rings}
+    lags.add((period / 2.0, 0.0))
+    return [ProcessModel(structure, {"K": K, "T": T, "zeta": zeta, "wn": wn, "delay": d})
+            for T, d in sorted(lags)]
+
+
 def refinement_id(structure: str) -> str:
     """The id of the least-squares refinement of ``structure``."""
     return f"lsq_{structure}"
@@ -62,6 +97,9 @@ def _refinement(structure: str) -> Callable[..., MethodResult]:
             raise NotApplicable(reason)
         if context.get("models") is None:
             context = {**context, "models": graphical_models(ev)}
+        if STRUCTURES[structure].rings:
+            context = {**context, "models": [
+                *context["models"], *ring_starts(ev, context["models"], structure)]}
         ref = refine_event(ev, structure, **context)
         return MethodResult(ref.model, ci95=dict(ref.ci95), refinement=summary(ref))
 

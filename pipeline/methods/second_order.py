@@ -105,6 +105,67 @@ def second_order_overshoot(ev: EventData) -> MethodResult:
         ProcessModel("second_order", {"K": K, "zeta": zeta, "wn": wn, "delay": delay}), diag)
 
 
+#: A ring is lightly damped when its valley/peak decay gives a damping ratio below this
+#: (or the valley is as deep as the peak, as behind a lag). One overshoot that barely
+#: dips below the final value is not a ring: the DC motor of daniw/rt-l overshoots by
+#: 1.7 % and its valley gives zeta 0.61 (valley/peak 0.09); a zeta-0.1 pair behind a 1 s
+#: lag overshoots by 9 % with valley/peak 1.08.
+LIGHT_DAMPING = 0.5
+
+
+def light_ring(reading) -> bool:
+    """Whether a :func:`second_order_overshoot` reading (a :class:`~pipeline.fit.Fit`)
+    found a lightly damped ring: a significant oscillation whose valley/peak decay gives
+    a damping ratio below :data:`LIGHT_DAMPING`, or a valley as deep as the peak."""
+    if reading is None or not reading.ok:
+        return False
+    zeta = reading.diagnostics.get("zeta_ratio")
+    return zeta is None or zeta < LIGHT_DAMPING
+
+
+#: Behind a lag the period read from the crossings and from the two peaks must agree
+#: within this share (:func:`ring_behind_lag`).
+PERIOD_AGREEMENT = 0.3
+
+
+def ring_behind_lag(ev: EventData) -> tuple[float, float] | None:
+    """A lightly damped ring the rise check of :func:`check_oscillation` refuses because
+    a lag in front of it slows the rise (Åström & Hägglund's oscillatory plant: a 1 s lag
+    before a pair of 2.1 s period rises in 2.9 s where the pair alone would need 0.56 s):
+    ``(zeta, period)`` or None. The overshoot and the valley pass the significance test
+    of :func:`check_oscillation`, a second peak stands 3 noise sigmas above the final
+    value (:func:`oscillation`), and the period twice the time between the first two
+    crossings agrees with the time between the peaks within :data:`PERIOD_AGREEMENT` (a
+    wiggle of noise riding on a slow rise has no second peak one period on). The damping
+    is read from the decay of the two peaks, ``r = (h3 - 1)/(h1 - 1) = exp(-2 pi zeta/
+    sqrt(1 - zeta^2))`` (the lag no longer weighs on it one period on); it must be below
+    :data:`LIGHT_DAMPING`."""
+    if ev.kind != "step":
+        return None
+    try:
+        resp = normalised(ev)
+        osc = oscillation(resp)
+    except NotApplicable:
+        return None
+    c0 = resp.crossing(1.0)
+    c1 = resp.crossing(1.0, start=int(np.searchsorted(resp.tau, osc["t1"])), falling=True)
+    if osc["t3"] is None or not c1 > c0:
+        return None
+    period, peaks = 2.0 * (c1 - c0), osc["t3"] - osc["t1"]
+    try:
+        check_oscillation(osc, resp.sigma, period / 2.0)
+    except NotApplicable:
+        return None
+    if abs(peaks / period - 1.0) > PERIOD_AGREEMENT:
+        return None
+    r = (osc["h3"] - 1.0) / (osc["h1"] - 1.0)
+    if not 0.0 < r < 1.0:
+        return None
+    log_r = math.log(r)
+    zeta = -log_r / math.sqrt(4.0 * math.pi**2 + log_r**2)
+    return (zeta, period) if zeta < LIGHT_DAMPING else None
+
+
 #: Significance of the overshoot and of the valley, in standard deviations of a reading
 #: (see :func:`check_oscillation`).
 Z_PEAK = 3.0

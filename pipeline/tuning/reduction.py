@@ -17,7 +17,10 @@ rules for model reduction and PID controller tuning", *J. Process Control* 13 (2
   tau_i0 + h/2``, for a second-order one ``tau2 = tau20 + tau30/2``, ``theta = theta0 +
   tau30/2 + sum_{i>=4} tau_i0 + h/2``;
 - a digital controller's sample period ``h`` adds ``h/2`` to the dead time (Section 3.3);
-- an integrator is a lag of infinite time constant: every finite lag is "smaller".
+- an integrator is a lag of infinite time constant: every finite lag is "smaller";
+- a lag behind a lightly damped pair (``lag_second_order``) has no rule in the paper: the
+  pair is read as a lag of ``max(2 zeta, 1)/wn`` (its time scale), and its resonance is
+  left to the check over the model's intervals, which reads the exact response.
 
 ``n_lags`` with a non-integer ``n`` (``n`` equal lags ``T``) is read as ``floor(n)`` lags
 ``T`` and one lag ``(n - floor(n)) T``, so that the reduction is continuous in ``n``.
@@ -109,6 +112,17 @@ def _parts(model: ProcessModel) -> _Parts:
             lags = [(zeta + r) / wn, (zeta - r) / wn]
         else:
             osc = (1.0 / wn, zeta)
+    elif s == "lag_second_order":
+        # no rule of Skogestad 2003 reads a lag and a lightly damped pair together; the
+        # pair moves on the time scale max(2 zeta, 1)/wn (2 zeta/wn is the sum of its
+        # time constants, 1/wn a lightly damped pair's own): read as a lag that long, for
+        # the half rule. Its resonance is the tuning's worst case, which the check of the
+        # settings over the interval sees (the exact response), not the reduction.
+        zeta, wn = p["zeta"], p["wn"]
+        pair = max(2.0 * zeta, 1.0) / wn
+        lags = [p["T"], pair]
+        steps.append(f"lightly damped pair (zeta {zeta:.3g}, wn {wn:.4g} rad/s) read as a "
+                     f"lag of max(2 zeta, 1)/wn = {pair:.4g} s")
     elif s == "integrator":
         pass
     elif s == "integrator_lag":
