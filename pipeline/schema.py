@@ -293,13 +293,15 @@ class ReplacedDoc(_Doc):
     """The rule's default settings (``tau_c`` not given) that were fragile or unstable
     over the intervals, so the tuning gives the robust choice of ``tau_c`` instead: their
     ``tau_c`` (s), controller, verdict, its reasons and their worst-case Ms (null:
-    unstable on some parameter set)."""
+    unstable on some parameter set), and their range over the intervals
+    (``controller_ci95``, as the tuning's own): the regression gate compares these."""
 
     tau_c: float
     controller: ControllerDoc
     verdict: TuningVerdictName
     reasons: list[str] = Field(default_factory=list)
     worst_ms: float | None = None
+    controller_ci95: dict[str, tuple[float, float]] = Field(default_factory=dict)
 
 
 class TuningDoc(_Doc):

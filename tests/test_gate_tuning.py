@@ -106,3 +106,35 @@ def test_verdict_worse_action_flip_kind_change_and_rule_change(nights):
     assert [f.parameter for f in tuning_findings(
         b.name, with_tuning(controller=outside), b, key,
         Tolerances(param_tols={"Kc": 0.0}))] == ["Kc"]
+
+
+def test_held_settings_are_compared_by_their_default(nights):
+    """Settings held back from a fragile default follow the interval's width: when either
+    night's were, the gate compares the rule's default settings (``replaced``) and their
+    spread. The held Kc moving by half is no finding while the default did not move; the
+    default moving beyond its spread is one, said as the default's."""
+    from pipeline.schema import ReplacedDoc
+
+    base, _, _ = nights
+    b = base.records[0]
+    key = (b.recommended.event, b.recommended.label)
+    tol = Tolerances()
+    own = b.tuning.controller
+    held = own.model_copy(update={"Kc": 0.5 * own.Kc})
+
+    def night(controller, default):
+        rep = ReplacedDoc(tau_c=1.0, controller=default, verdict="fragile",
+                          controller_ci95=dict(b.tuning.controller_ci95))
+        return b.model_copy(update={"tuning": b.tuning.model_copy(
+            update={"controller": controller, "replaced": rep, "controller_ci95": {}})})
+
+    # tonight held (half the gain), last night the same default given as it was
+    assert tuning_findings(b.name, night(held, own), b, key, tol) == []
+    # both nights held, at different gains, from the same default
+    assert tuning_findings(b.name, night(held, own), night(own, own), key, tol) == []
+    # the default itself moved far beyond its spread: a finding, named as the default's
+    lo, hi = b.tuning.controller_ci95["Kc"]
+    moved = own.model_copy(update={"Kc": own.Kc + 3.0 * (hi - lo) + 0.5 * own.Kc})
+    found = tuning_findings(b.name, night(held, moved), b, key, tol)
+    assert [f.parameter for f in found] == ["Kc"]
+    assert "the rule's default tuned Kc drifted" in found[0].message

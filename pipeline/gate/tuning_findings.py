@@ -22,6 +22,9 @@ not a regression):
   (reverse -> direct) is always a finding; a controller kind that changed (PI -> PID, a
   rule's choice on a model near its boundary) is listed as information, its settings
   not compared (the model's own findings say whether the model moved).
+  When either night's settings were held back from a fragile default (``replaced``:
+  :mod:`pipeline.tuning.tuner`), the rule's default settings and their spread are
+  compared instead: the held ones follow the interval's width too.
 * **tuning_verdict** - the tuning verdict got worse (robust -> fragile ->
   unstable_in_interval), or a tuning that was ok is now not_applicable. "unchecked" is
   not ranked (it says the check could not be made, not that it failed).
@@ -82,12 +85,25 @@ def tuning_findings(name: str, cur: RecordDoc, base: RecordDoc, recommended, tol
     return out
 
 
+def _compared(doc: TuningDoc, default: bool) -> tuple:
+    """The settings the gate compares and their spread: the rule's default ones when
+    ``default`` (the tuning's own when they were not replaced)."""
+    if default and doc.replaced is not None:
+        return doc.replaced.controller, doc.replaced.controller_ci95
+    return doc.controller, doc.controller_ci95
+
+
 def _setting_drift(b: TuningDoc, c: TuningDoc, tol, finding, model_drifted: bool
                    ) -> list[Finding]:
-    if not (b.controller_ci95 and c.controller_ci95) and not model_drifted:
+    # settings held back from a fragile default follow the interval's width as well as
+    # the model (a wider interval holds tau_c further back): when either night's were,
+    # the rule's default settings are compared, which follow the model alone
+    default = b.replaced is not None or c.replaced is not None
+    (bc, b_ci), (cc, c_ci) = _compared(b, default), _compared(c, default)
+    if not (b_ci and c_ci) and not model_drifted:
         return []  # no spread: a model within its tolerances gives settings within theirs
     out = []
-    bc, cc = b.controller, c.controller
+    what = "the rule's default " if default else ""
     for p in SETTINGS:
         bv, cv = getattr(bc, p), getattr(cc, p)
         if bv is None or cv is None or bv == cv:
@@ -97,19 +113,19 @@ def _setting_drift(b: TuningDoc, c: TuningDoc, tol, finding, model_drifted: bool
             scale = max(scale, 0.1 * (bc.Ti or 0.0))
         change = (cv - bv) / scale if scale > 0 else math.copysign(math.inf, cv - bv)
         limit = tol.for_param(p)
-        if abs(change) <= limit or _within(p, bv, cv, b, c):
+        if abs(change) <= limit or _within(p, bv, cv, b_ci, c_ci):
             continue
         out.append(finding("tuning_drift", p, bv, cv,
-                           f"tuned {p} drifted {pct_text(change)} ({num_text(bv)} -> "
+                           f"{what}tuned {p} drifted {pct_text(change)} ({num_text(bv)} -> "
                            f"{num_text(cv)}; tolerance {pct_text(limit, sign=False)})",
                            change, limit))
     return out
 
 
-def _within(p: str, bv: float, cv: float, b: TuningDoc, c: TuningDoc) -> bool:
+def _within(p: str, bv: float, cv: float, b_ci: dict, c_ci: dict) -> bool:
     """Both runs carry the setting's spread and the change is within their combined
     half-widths (as :func:`pipeline.gate.baseline.within_intervals` for parameters)."""
-    sb, sc = b.controller_ci95.get(p), c.controller_ci95.get(p)
+    sb, sc = b_ci.get(p), c_ci.get(p)
     if not sb or not sc:
         return False
     return abs(cv - bv) <= math.hypot((sb[1] - sb[0]) / 2.0, (sc[1] - sc[0]) / 2.0)

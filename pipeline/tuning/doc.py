@@ -119,7 +119,9 @@ def _replaced_doc(t: Tuning) -> ReplacedDoc | None:
         return None
     return ReplacedDoc(tau_c=float(r.settings.tau_c),
                        controller=_controller_doc(r.settings.controller), verdict=r.verdict,
-                       reasons=list(r.reasons), worst_ms=_num(r.worst_ms))
+                       reasons=list(r.reasons), worst_ms=_num(r.worst_ms),
+                       controller_ci95={k: (float(lo), float(hi))
+                                        for k, (lo, hi) in r.spread.items()})
 
 
 def tuning_doc(rt: RecordTuning | None) -> TuningDoc | None:

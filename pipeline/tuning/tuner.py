@@ -48,6 +48,8 @@ TimeUnit = Literal["s", "min"]
 
 #: Above this worst-case Ms the tuning is "fragile" (see the module docstring).
 FRAGILE_MS = 2.0
+#: The verdicts in a sentence ("the default settings are ...").
+VERDICT_WORDS = {"unstable_in_interval": "unstable over the interval"}
 #: The default Ms target when tau_c is chosen from the worst case.
 MS_TARGET = 1.7
 
@@ -82,12 +84,16 @@ class TuningOptions:
 @dataclass(frozen=True)
 class Replaced:
     """The rule's default settings that a tuning did not give: their verdict, its
-    reasons and their worst-case Ms over the interval (inf: unstable somewhere)."""
+    reasons, their worst-case Ms over the interval (inf: unstable somewhere) and their
+    spread over the interval's sets (:func:`settings_spread`). The regression gate
+    compares these: they follow the model continuously, where the held settings also
+    follow the interval's width (the wider it is, the further tau_c is held back)."""
 
     settings: RuleSettings
     verdict: TuningVerdict
     reasons: tuple[str, ...]
     worst_ms: float
+    spread: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -304,13 +310,15 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
         # the rule's default tau_c was not asked for by name: give the settings that hold
         # over the interval, and say what the default would have been
         replaced = Replaced(settings, verdict, tuple(reasons),
-                            worst.ms if worst is not None and worst.stable else math.inf)
+                            worst.ms if worst is not None and worst.stable else math.inf,
+                            settings_spread(model, settings, opt, sets or [], h))
         settings, alt, alt_ms = held, None, None
         margins, worst, verdict, reasons = _evaluate(model, settings.controller, sets,
                                                      corners, trusted, why)
         reasons.insert(0, f"the rule's default tau_c ({replaced.settings.tau_c:.4g} s: "
                        f"{_settings_text(replaced.settings.controller)}) is "
-                       f"{replaced.verdict.replace('_', ' ')} ({replaced.reasons[0]}); "
+                       f"{VERDICT_WORDS.get(replaced.verdict, replaced.verdict)} "
+                       f"({replaced.reasons[0]}); "
                        f"tau_c = {settings.tau_c:.4g} s is the fastest whose worst case "
                        f"keeps Ms at or below {FRAGILE_MS:g} (tau_c: tight keeps the "
                        f"default, tau_c: robust aims at {MS_TARGET:g})")
@@ -331,23 +339,9 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
     return Tuning(model=model, settings=settings, margins=margins, worst=worst,
                   verdict=verdict, reasons=tuple(reasons), options=opt, response=resp,
                   worst_response=worst_resp, notes=tuple(notes),
-                  spread=_spread(model, settings, opt, sets or [], h, replaced),
+                  spread=settings_spread(model, settings, opt, sets or [], h,
+                                         chosen=replaced is not None),
                   alternative=alt, alternative_ms=alt_ms, replaced=replaced)
-
-
-def _spread(model: ProcessModel, settings: RuleSettings, opt: TuningOptions, sets,
-            h: float, replaced: Replaced | None) -> dict[str, tuple[float, float]]:
-    """:func:`settings_spread`; for settings held in place of the default ones, the
-    union of the held tau_c's spread and the default's: a model anywhere inside the
-    interval, tuned again, gives settings between the two (the interval's width decides
-    how far tau_c is held back, so fresh noise moves the held settings more than the
-    rule's own; the gate reads this as their noise)."""
-    out = settings_spread(model, settings, opt, sets, h, chosen=replaced is not None)
-    if replaced is None:
-        return out
-    default = settings_spread(model, replaced.settings, opt, sets, h)
-    return {k: (min(lo, default[k][0]), max(hi, default[k][1])) if k in default
-            else (lo, hi) for k, (lo, hi) in out.items()}
 
 
 def _evaluate(model: ProcessModel, c: Controller, sets, corners: int, trusted: bool,
