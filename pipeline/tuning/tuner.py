@@ -115,9 +115,9 @@ class Tuning:
     #: the range of the ideal-form settings the same rule gives on the interval's parameter
     #: sets (``Kc`` signed; empty without an interval): :func:`settings_spread`
     spread: dict[str, tuple[float, float]] = field(default_factory=dict)
-    #: when the settings are fragile or unstable over the interval: the same rule with
-    #: the fastest tau_c whose worst case keeps Ms at :data:`MS_TARGET` (None otherwise,
-    #: for AMIGO, or when no tau_c reaches it)
+    #: when settings asked for by ``tau_c`` are fragile or unstable over the interval:
+    #: the same rule with the fastest tau_c whose worst case keeps Ms at
+    #: :data:`MS_TARGET` (None otherwise, for AMIGO, or when no tau_c reaches it)
     alternative: RuleSettings | None = None
     alternative_ms: float | None = None
     #: the rule's default settings when they were fragile or unstable over the interval
@@ -303,8 +303,13 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
                       if not sets or len(sets) < 2 else "")
     margins, worst, verdict, reasons = _evaluate(model, settings.controller, sets, corners,
                                                  trusted, why)
-    alt, alt_ms = _alternative(model, opt, sets, h, verdict)
-    held = _held(model, opt, sets, h) if alt is not None and opt.tau_c is None else None
+    # tau_c not given: the settings that hold take the default's place (a worst case at
+    # the verdict's limit); given by name or in seconds: the robust choice beside them
+    held = alt = alt_ms = None
+    if opt.tau_c is None:
+        held, _ = _alternative(model, opt, sets, h, verdict, FRAGILE_MS)
+    else:
+        alt, alt_ms = _alternative(model, opt, sets, h, verdict, MS_TARGET)
     replaced = None
     if held is not None:
         # the rule's default tau_c was not asked for by name: give the settings that hold
@@ -355,29 +360,24 @@ def _evaluate(model: ProcessModel, c: Controller, sets, corners: int, trusted: b
 
 
 def _alternative(model: ProcessModel, opt: TuningOptions, sets, h: float,
-                 verdict: TuningVerdict) -> tuple[RuleSettings | None, float | None]:
-    """The robust choice of tau_c beside settings that are fragile or unstable over the
-    interval (what an engineer asks next), when the rule has a tau_c to choose."""
+                 verdict: TuningVerdict, target: float
+                 ) -> tuple[RuleSettings | None, float | None]:
+    """The fastest tau_c whose worst case keeps Ms at ``target`` and that worst-case Ms,
+    beside settings that are fragile or unstable over the interval, when the rule has a
+    tau_c to choose and no Ms target was asked for (None otherwise). With ``target`` at
+    :data:`FRAGILE_MS`, the verdict's own limit, the settings in place of the default are
+    continuous in the data (a default whose worst case is just below the limit and one
+    just above it give nearly the same settings: fresh noise does not make the gate's
+    tuned Kc jump); with :data:`MS_TARGET`, what an engineer who asked for tau_c by name
+    is offered beside it."""
     if verdict not in ("fragile", "unstable_in_interval") or not sets or len(sets) < 2 \
             or opt.ms_target is not None or opt.rule == "amigo":
         return None, None
     try:
-        alt = _tau_c_for_target(model, replace(opt, ms_target=MS_TARGET), sets, h)
+        alt = _tau_c_for_target(model, replace(opt, ms_target=target), sets, h)
     except ValueError:
         return None, None
     return alt, worst_case(model, alt.controller, sets).ms
-
-
-def _held(model: ProcessModel, opt: TuningOptions, sets, h: float) -> RuleSettings | None:
-    """The rule's settings in place of its default ones that are fragile or unstable over
-    the interval: the fastest tau_c whose worst-case Ms is at most :data:`FRAGILE_MS`,
-    the verdict's own limit, so that the settings are continuous in the data (a default
-    whose worst case is just below the limit and one just above it give nearly the same
-    settings: fresh noise does not make the gate's tuned Kc jump)."""
-    try:
-        return _tau_c_for_target(model, replace(opt, ms_target=FRAGILE_MS), sets, h)
-    except ValueError:
-        return None
 
 
 def _settings_text(c: Controller) -> str:
