@@ -152,6 +152,12 @@ def _g(v: float, digits: int) -> str:
     return f"{float(v):.{digits}g}"
 
 
+def _pair_text(p: Mapping[str, float], digits: int) -> str:
+    """``Tw^2 s^2 + 2 zeta Tw s + 1`` with ``Tw = 1/wn`` in numbers (``inf`` at wn = 0)."""
+    tw = 1.0 / p["wn"] if p["wn"] > 0 else math.inf
+    return f"{_g(tw * tw, digits)}s^2+{_g(2.0 * p['zeta'] * tw, digits)}s+1"
+
+
 # =====================================================================================
 # Structures
 # =====================================================================================
@@ -203,7 +209,7 @@ _BOUNDS_DELAY = {"K": (-math.inf, math.inf), "delay": (0.0, math.inf)}
 
 STRUCTURES: dict[str, Structure] = {s.name: s for s in (
     Structure(
-        "first_order", ("K", "T", "delay"), "K e^{-delay s}/(T s+1)",
+        "first_order", ("K", "T", "delay"), "K e^(-delay s)/(T s+1)",
         step=lambda p, t: -np.expm1(-t / p["T"]),
         num_den=lambda p: ([p["K"]], [p["T"], 1.0]),
         text=lambda p, d: f"{_g(p['K'], d)}/({_g(p['T'], d)}s+1)",
@@ -214,12 +220,13 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
     ),
     Structure(
         "second_order", ("K", "zeta", "wn", "delay"),
-        "K wn^2 e^{-delay s}/(s^2+2 zeta wn s+wn^2)",
+        "K e^(-delay s)/(s^2/wn^2+2 zeta s/wn+1)",
         step=lambda p, t: second_order_step(t, p["zeta"], p["wn"]),
         num_den=lambda p: ([p["K"] * p["wn"] ** 2], [1.0, 2 * p["zeta"] * p["wn"],
                                                      p["wn"] ** 2]),
-        text=lambda p, d: (f"{_g(p['K'] * p['wn'] ** 2, d)}/(s^2+{_g(2 * p['zeta'] * p['wn'], d)}"
-                           f"s+{_g(p['wn'] ** 2, d)})"),
+        # the time-constant form K/(Tw^2 s^2 + 2 zeta Tw s + 1), Tw = 1/wn (as MATLAB's
+        # idproc prints it): the gain is read off the text
+        text=lambda p, d: f"{_g(p['K'], d)}/({_pair_text(p, d)})",
         # 2 zeta/wn is the sum of the time constants; a lightly damped pair still moves
         # on the time scale 1/wn
         time_scale=lambda p: max(2.0 * p["zeta"], 1.0) / p["wn"] if p["wn"] > 0 else math.nan,
@@ -228,7 +235,7 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
         bounds={**_BOUNDS_DELAY, "zeta": (0.0, 50.0), "wn": _POSITIVE},
     ),
     Structure(
-        "two_lags", ("K", "T1", "T2", "delay"), "K e^{-delay s}/((T1 s+1)(T2 s+1))",
+        "two_lags", ("K", "T1", "T2", "delay"), "K e^(-delay s)/((T1 s+1)(T2 s+1))",
         step=lambda p, t: two_lag_step(t, p["T1"], p["T2"]),
         num_den=lambda p: ([p["K"]], [p["T1"] * p["T2"], p["T1"] + p["T2"], 1.0]),
         text=lambda p, d: f"{_g(p['K'], d)}/(({_g(p['T1'], d)}s+1)({_g(p['T2'], d)}s+1))",
@@ -238,18 +245,19 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
         bounds={**_BOUNDS_DELAY, "T1": _POSITIVE, "T2": _POSITIVE},
     ),
     Structure(
-        "n_lags", ("K", "T", "n", "delay"), "K e^{-delay s}/(T s+1)^n",
+        "n_lags", ("K", "T", "n", "delay"), "K e^(-delay s)/(T s+1)^n",
         step=lambda p, t: gammainc(float(p["n"]), t / p["T"]),
         num_den=lambda p: (([p["K"]], _poly_power([p["T"], 1.0], int(p["n"])))
                            if float(p["n"]).is_integer() else None),
-        text=lambda p, d: f"{_g(p['K'], d)}/({_g(p['T'], d)}s+1)^{_g(p['n'], d)}",
+        text=lambda p, d: f"{_g(p['K'], d)}/({_g(p['T'], d)}s+1)" + (
+            "" if float(p["n"]) == 1.0 else f"^{_g(p['n'], d)}"),
         time_scale=lambda p: abs(p["T"]) * max(float(p["n"]), 0.0),
         order_class=lambda p: {1.0: "first", 2.0: "second"}.get(float(p["n"]), "nth"),
         lags=lambda p: [p["T"]] * int(p["n"]) if float(p["n"]).is_integer() else [],
         bounds={**_BOUNDS_DELAY, "T": _POSITIVE, "n": (1.0, 20.0)},
     ),
     Structure(
-        "integrator", ("K", "delay"), "K e^{-delay s}/s",
+        "integrator", ("K", "delay"), "K e^(-delay s)/s",
         step=lambda p, t: np.asarray(t, dtype=np.float64),
         num_den=lambda p: ([p["K"]], [1.0, 0.0]),
         text=lambda p, d: f"{_g(p['K'], d)}/s",
@@ -259,7 +267,7 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
         integrating=True,
     ),
     Structure(
-        "integrator_lag", ("K", "T", "delay"), "K e^{-delay s}/(s(T s+1))",
+        "integrator_lag", ("K", "T", "delay"), "K e^(-delay s)/(s(T s+1))",
         step=lambda p, t: integrator_lag_step(t, p["T"]),
         num_den=lambda p: ([p["K"]], [p["T"], 1.0, 0.0]),
         text=lambda p, d: f"{_g(p['K'], d)}/(s({_g(p['T'], d)}s+1))",
@@ -271,7 +279,7 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
     ),
     Structure(
         "zero_two_lags", ("K", "Tz", "T1", "T2", "delay"),
-        "K (Tz s+1) e^{-delay s}/((T1 s+1)(T2 s+1))",
+        "K (Tz s+1) e^(-delay s)/((T1 s+1)(T2 s+1))",
         step=lambda p, t: (two_lag_step(t, p["T1"], p["T2"])
                            + p["Tz"] * two_lag_impulse(t, p["T1"], p["T2"])),
         num_den=lambda p: ([p["K"] * p["Tz"], p["K"]],
@@ -285,7 +293,7 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
                 "T2": _POSITIVE},
     ),
     Structure(
-        "lead_lag", ("K", "Tz", "T", "delay"), "K (Tz s+1) e^{-delay s}/(T s+1)",
+        "lead_lag", ("K", "Tz", "T", "delay"), "K (Tz s+1) e^(-delay s)/(T s+1)",
         step=lambda p, t: lead_lag_step(t, p["Tz"], p["T"]),
         num_den=lambda p: ([p["K"] * p["Tz"], p["K"]], [p["T"], 1.0]),
         text=lambda p, d: f"{_g(p['K'], d)}({_g(p['Tz'], d)}s+1)/({_g(p['T'], d)}s+1)",
@@ -296,14 +304,13 @@ STRUCTURES: dict[str, Structure] = {s.name: s for s in (
     ),
     Structure(
         "lag_second_order", ("K", "T", "zeta", "wn", "delay"),
-        "K wn^2 e^{-delay s}/((T s+1)(s^2+2 zeta wn s+wn^2))",
+        "K e^(-delay s)/((T s+1)(s^2/wn^2+2 zeta s/wn+1))",
         step=lambda p, t: lag_pair_step(t, p["T"], p["zeta"], p["wn"]),
         # (T s + 1)(s^2/wn^2 + 2 zeta s/wn + 1): the gain alone in the numerator
         num_den=lambda p: ([p["K"]], [p["T"] / p["wn"] ** 2,
                                       (2 * p["zeta"] * p["T"] * p["wn"] + 1) / p["wn"] ** 2,
                                       p["T"] + 2 * p["zeta"] / p["wn"], 1.0]),
-        text=lambda p, d: (f"{_g(p['K'] * p['wn'] ** 2, d)}/(({_g(p['T'], d)}s+1)(s^2+"
-                           f"{_g(2 * p['zeta'] * p['wn'], d)}s+{_g(p['wn'] ** 2, d)}))"),
+        text=lambda p, d: f"{_g(p['K'], d)}/(({_g(p['T'], d)}s+1)({_pair_text(p, d)}))",
         # the lag's time constant and the pair's time scale (as second_order's)
         time_scale=lambda p: abs(p["T"]) + (max(2.0 * p["zeta"], 1.0) / p["wn"]
                                             if p["wn"] > 0 else math.nan),

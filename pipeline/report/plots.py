@@ -137,6 +137,65 @@ def overlay(record: Record, sl: slice, curves: Iterable[tuple[str, np.ndarray]],
     return png_of(fig, dpi)
 
 
+#: Lags of the residual autocorrelation in the compare plot, and the most residuals it
+#: is read from (the first ones: lag products over 10 M samples would cost seconds).
+ACF_LAGS, ACF_SAMPLES = 40, 1_000_000
+
+
+def residual_acf(resid: np.ndarray, lags: int = ACF_LAGS) -> np.ndarray:
+    """Autocorrelation of ``resid`` (finite samples, mean removed) at lags ``0..lags``, by
+    direct products over at most :data:`ACF_SAMPLES` of them (no record-long FFT)."""
+    e = np.asarray(resid, dtype=np.float64)
+    e = e[np.isfinite(e)][:ACF_SAMPLES]
+    e = e - e.mean() if e.size else e
+    lags = max(0, min(lags, e.size - 2))
+    c0 = float(e @ e)
+    if not c0 > 0:
+        return np.r_[1.0, np.zeros(lags)]
+    return np.array([1.0] + [float(e[:-k] @ e[k:]) / c0 for k in range(1, lags + 1)])
+
+
+def compare(record: Record, sl: slice, yhat: np.ndarray, label: str, fit_pct: float,
+            *, events=(), roles=None, dpi: int = DPI) -> bytes:
+    """MATLAB ``compare``'s view: the measured output and the recommended model simulated
+    over the record (heavy), its fit % in the title, and below it the residuals'
+    autocorrelation with the 95 % band of white noise, ``+-1.96/sqrt(n)`` (Ljung 1999,
+    sec. 16.6: residuals correlated beyond it are dynamics the model misses)."""
+    fig, (ax, ax_r) = plt.subplots(2, 1, figsize=(11, 6.0),
+                                   gridspec_kw={"height_ratios": [2.2, 1]})
+    t = _tu(record, record.t[sl])
+    y = record.y[sl]
+    px = columns_of(fig, dpi)
+    ax.plot(*decimate(t, y, px), color="#222222", lw=1.0, alpha=0.8, label="measured")
+    ax.plot(*decimate(t, yhat, px), color="#1f5fa8", lw=2.2, label=label)
+    if events:
+        _shade(ax, record, [e for e in events if e.i_start < sl.stop and e.i_end > sl.start],
+               roles or {}, labels=False)
+    ax.set_xlim(t[0], t[-1])
+    ax.set_xlabel(_time_label(record))
+    ax.set_ylabel(_label(record, "output"))
+    ax.set_title(f"Compare: measured and the recommended model simulated over the events "
+                 f"(fit {fit_pct:.1f} %)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8)
+    resid = y - yhat
+    n = int(np.count_nonzero(np.isfinite(resid)))
+    acf = residual_acf(resid)
+    k = np.arange(acf.size)
+    ax_r.vlines(k[1:], 0.0, acf[1:], color="#1f5fa8", lw=1.5)
+    ax_r.plot(k[1:], acf[1:], "o", ms=3, color="#1f5fa8", label="residual autocorrelation")
+    band = 1.96 / math.sqrt(max(min(n, ACF_SAMPLES), 1))
+    ax_r.axhspan(-band, band, color="#999999", alpha=0.25, label="95 % band of white noise")
+    ax_r.axhline(0.0, color="#555555", lw=0.8)
+    ax_r.set_xlim(0, max(acf.size - 1, 1) + 0.5)
+    ax_r.set_xlabel("lag [samples]")
+    ax_r.set_ylabel("autocorrelation")
+    ax_r.grid(alpha=0.3)
+    ax_r.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8)
+    fig.tight_layout()
+    return png_of(fig, dpi)
+
+
 def criterion_bars(names: list[str], values: list[float], xlabel: str, title: str, *,
                    dpi: int = DPI) -> bytes:
     """Sorted horizontal bar chart of a criterion (best at the top), log scale if spread."""

@@ -87,7 +87,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
            "source": shown_source(rec.source if rec else res.source),
            "notes": list(rec.notes) if rec else [], "events": None, "ident": [],
            "box": None, "ident_rest": None, "events_line": "", "record_flags": [],
-           "controller": None}
+           "controller": None, "compare": None}
     if rec is None:
         return ctx, files
     tu = rec.units.get("time")
@@ -100,6 +100,8 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
                    "input": rec.input_name, "output": rec.output_name,
                    "units": ", ".join(f"{k}: {v}" for k, v in rec.units.items()) or "-"}
     ctx["box"] = recommended_box(res)
+    if mode == "full":
+        ctx["compare"] = _compare(res, add, anchor, dpi)
     ctx["controller"] = controller_context(res, mode, add, anchor, dpi)
     ctx["record_flags"] = [{"code": f.code, "message": f.message, "severity": f.severity}
                            for f in res.flags]
@@ -115,6 +117,41 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     if len(ident) > DETAILED_EVENTS:
         ctx["ident_rest"] = ident_summary_table(res, ident[DETAILED_EVENTS:])
     return ctx, files
+
+
+def compare_curve(res: RecordResult) -> tuple[slice, np.ndarray, float] | None:
+    """The recommended model simulated over every event (as the validation simulates a
+    run: continuously, from the operating point before it), the samples it covers and
+    its fit % there (``100 (1 - |y - yhat| / |y - mean y|)``, MATLAB ``compare``'s
+    NRMSE fit); None without a recommended model."""
+    f, rec = res.recommended, res.record
+    if f is None or rec is None or not res.events:
+        return None
+    sims = validation_simulation(f.model, rec, res.events, list(range(len(res.events))),
+                                 f.balance_point)
+    if not sims:
+        return None
+    lo, hi = min(sl.start for sl, _ in sims), max(sl.stop for sl, _ in sims)
+    yhat = np.full(hi - lo, np.nan)
+    for sl, sim in sims:
+        yhat[sl.start - lo:sl.stop - lo] = sim
+    y = rec.y[lo:hi]
+    ok = np.isfinite(yhat)
+    spread = float(np.linalg.norm(y[ok] - np.mean(y[ok]))) if ok.any() else 0.0
+    fit = 100.0 * (1.0 - float(np.linalg.norm(y[ok] - yhat[ok])) / spread) if spread > 0 \
+        else math.nan
+    return slice(lo, hi), yhat, fit
+
+
+def _compare(res: RecordResult, add, anchor: str, dpi: int):
+    got = compare_curve(res)
+    if got is None:
+        return None
+    sl, yhat, fit = got
+    f = res.recommended
+    return add(f"{anchor}_compare", "Compare", plots.compare(
+        res.record, sl, yhat, f"{_label(f)}: {f.model.text(3)}", fit, events=res.events,
+        roles=res.roles, dpi=dpi))
 
 
 def events_line(res: RecordResult) -> str:
