@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import pipeline
-from pipeline.report.plots import ACF_SAMPLES, residual_acf
+from pipeline.report.plots import ACF_SAMPLES, is_heavy, residual_acf
 from pipeline.report.sections import compare_curve, record_section
 from pipeline.simulation import simulate
 
@@ -65,3 +65,11 @@ def test_compare_comes_first_in_a_full_report_only():
     assert ctx["compare"] is not None and "r0_compare.png" in "".join(files)
     ctx, files = record_section(res, "summary", "r0")
     assert ctx["compare"] is None and not any("compare" in f for f in files)
+
+
+def test_the_recommended_curve_is_the_heavy_one_by_its_label():
+    assert is_heavy("lsq_first_order: 2/(10s+1)", "lsq_first_order")
+    assert is_heavy("lsq_first_order (MSE 0.01)", "lsq_first_order")
+    assert not is_heavy("lsq_first_order_x: 2/(10s+1)", "lsq_first_order")
+    assert not is_heavy("first_order: 2/(10s+1)", "lsq_first_order")
+    assert not is_heavy("first_order", None)

@@ -102,10 +102,18 @@ def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     return png_of(fig, dpi)
 
 
+def is_heavy(name: str, heavy: str | None) -> bool:
+    """Whether the curve ``name`` (``label``, ``label: G(s)`` or ``label (MSE ...)``) is
+    the recommended model's, whose label is ``heavy``."""
+    return heavy is not None and (name == heavy or name.startswith((f"{heavy}:",
+                                                                    f"{heavy} (")))
+
+
 def overlay(record: Record, sl: slice, curves: Iterable[tuple[str, np.ndarray]],
             title: str, *, events=(), roles=None, marks: list[tuple[float, float, str]] = (),
-            dpi: int = DPI) -> bytes:
-    """Measured output over ``sl`` with model curves; optional read points ``marks``.
+            heavy: str | None = None, dpi: int = DPI) -> bytes:
+    """Measured output over ``sl`` with model curves; optional read points ``marks``;
+    ``heavy``: the label the recommended model's curve starts with (drawn heavier).
     ``curves`` is iterated once, each curve decimated as it comes: a generator holds one
     record-long curve at a time (a list of eight validation curves over a 10 M-sample
     record was 640 MB at once)."""
@@ -117,7 +125,9 @@ def overlay(record: Record, sl: slice, curves: Iterable[tuple[str, np.ndarray]],
     styles = ["-", "--", "-.", ":"]
     n_curves = 0
     for k, (name, yh) in enumerate(curves):
-        ax.plot(*decimate(t, yh, px), lw=1.3, ls=styles[(k // 10) % 4], label=name)
+        rec = is_heavy(name, heavy)
+        ax.plot(*decimate(t, yh, px), lw=2.6 if rec else 1.3, ls=styles[(k // 10) % 4],
+                label=name, zorder=3 if rec else 2)
         n_curves = k + 1
         del yh
     for tm, ym, text in marks:

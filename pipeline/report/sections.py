@@ -190,6 +190,11 @@ def _label(f) -> str:
     return fit_label(f.method, f.event, list(f.events))
 
 
+def _heavy(res: RecordResult) -> str | None:
+    """The curve label of the recommended model (drawn heavier in every overlay)."""
+    return _label(res.recommended) if res.recommended is not None else None
+
+
 def _marks(diag: dict) -> list[tuple[float, float, str]]:
     """The points a method read (t63/y63, ...) for drawing."""
     out = []
@@ -234,7 +239,7 @@ def _ident_context(res: RecordResult, i: int, mode: str, add, anchor: str, dpi: 
         out["figures"].append(add(
             f"{anchor}_e{i}_ident_{order}", f"Identification event {i}: {label}",
             plots.overlay(rec, sl, curves, f"Identification event {i}: measured vs {label}",
-                          marks=marks, dpi=dpi)))
+                          marks=marks, heavy=_heavy(res), dpi=dpi)))
         if validation:
             out["figures"].append(add(
                 f"{anchor}_e{i}_valid_{order}", f"Validation events: {label}",
@@ -264,7 +269,8 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
 
     return plots.overlay(rec, slice(lo, hi), curves(),
                          f"Validation: measured vs {label}, simulated from each run's "
-                         "operating point", events=res.events, roles=res.roles, dpi=dpi)
+                         "operating point", events=res.events, roles=res.roles,
+                         heavy=_heavy(res), dpi=dpi)
 
 
 def controller_context(res: RecordResult, mode: str, add, anchor: str, dpi: int
