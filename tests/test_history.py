@@ -258,3 +258,33 @@ def test_appending_keeps_the_file_mode(tmp_path, history):
     append_history(path, doc, START + timedelta(days=30))
     assert stat.S_IMODE(os.stat(path).st_mode) == 0o664
     assert load_history(path).height == NIGHTS * 2 * len(METHODS) + 1
+
+
+def test_trend_titles_fit_and_twelve_records_get_twelve_colours():
+    """Issue 29: a long title (a record name and the "moved most" note) wraps inside the
+    figure instead of running off it; twelve records get twelve distinct colours, named
+    in a legend beside the axes."""
+    from datetime import datetime, timedelta
+
+    import polars as pl
+
+    from pipeline.report.history_plots import trend_figure
+
+    t0 = datetime(2026, 12, 1)
+    names = [f"district_heating_pipe_segment_{k:02d}" for k in range(12)]
+    frame = pl.DataFrame({
+        "time": [t0 + timedelta(days=d) for _ in names for d in range(4)],
+        "record": [n for n in names for _ in range(4)],
+        "ratio": [1.0 + 0.01 * k * d for k in range(12) for d in range(4)]})
+    title = ("time constant T over runs, relative to the baseline: " + names[0]
+             + " (the 12 of 40 records that moved most)")
+    fig = trend_figure(frame, title, "T", "the baseline")
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    box = ax.title.get_window_extent()
+    width, height = fig.canvas.get_width_height()
+    assert box.x0 >= 0 and box.x1 <= width and box.y1 <= height
+    assert "\n" in ax.title.get_text()
+    colours = {tuple(line.get_color()) for line in ax.get_lines()[1:]}
+    assert len(ax.get_lines()) - 1 == 12 and len(colours) == 12
+    assert [x.get_text() for x in ax.get_legend().get_texts()] == names

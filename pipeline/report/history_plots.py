@@ -22,9 +22,11 @@ Matplotlib's object API with the Agg canvas: no pyplot state, safe in worker thr
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping
 from io import BytesIO
 
+import matplotlib
 import matplotlib.dates as mdates
 import polars as pl
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -153,17 +155,33 @@ def plot_frame(rows: pl.DataFrame, column: str, reference: Mapping[str, Referenc
     return frame.sort("time", maintain_order=True), note
 
 
-def trend_png(frame: pl.DataFrame, title: str, column: str, what: str, *, dpi: int = 100
-              ) -> bytes:
-    """One line per record of ``ratio`` against ``time``, as PNG bytes."""
-    fig = Figure(figsize=(8.0, 4.0), dpi=dpi)  # fixed margins: one draw per PNG
+#: Title characters per line (8 inches at 10 pt): longer titles wrap instead of running
+#: off the figure (issue 29: history titles were clipped).
+TITLE_WIDTH = 78
+
+
+def trend_figure(frame: pl.DataFrame, title: str, column: str, what: str, *,
+                 dpi: int = 100) -> Figure:
+    """One line per record of ``ratio`` against ``time``: a distinct colour per record
+    (tab10, then tab20 beyond ten; a dashed second round beyond twenty), the legend
+    beside the axes (not over the lines), the title wrapped to the figure."""
+    lines = textwrap.wrap(title, TITLE_WIDTH) or [""]
+    fig = Figure(figsize=(8.0, 4.0 + 0.2 * (len(lines) - 1)), dpi=dpi)
     FigureCanvasAgg(fig)
-    fig.subplots_adjust(left=0.11, right=0.98, bottom=0.16, top=0.91)
+    # the top margin makes room for the title's lines; the legend beside the axes is
+    # taken in by the tight bounding box of the PNG
+    fig.subplots_adjust(left=0.11, right=0.98, bottom=0.16,
+                        top=0.91 - 0.055 * (len(lines) - 1))
     ax = fig.add_subplot()
     ax.axhline(1.0, color="0.5", linewidth=0.8, linestyle="--")
-    for (name,), part in frame.group_by("record", maintain_order=True):
-        ax.plot(part.get_column("time").to_list(), part.get_column("ratio").to_list(),
-                marker="o", markersize=3, linewidth=1.2, label=str(name))
+    groups = list(frame.group_by("record", maintain_order=True))
+    cmap = matplotlib.colormaps["tab10" if len(groups) <= 10 else "tab20"]
+    for k, ((name,), part) in enumerate(groups):
+        times = part.get_column("time").to_list()
+        ratios = part.get_column("ratio").to_list()
+        colour = cmap(k % cmap.N)
+        ax.plot(times, ratios, marker="o", markersize=3, linewidth=1.2, label=str(name),
+                color=colour, linestyle="-" if k < cmap.N else "--")
     values = frame.get_column("ratio")
     if column == MSE and values.min() > 0 and values.max() > 100 * values.min():
         ax.set_yscale("log")
@@ -172,10 +190,17 @@ def trend_png(frame: pl.DataFrame, title: str, column: str, what: str, *, dpi: i
     ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
     ax.set_xlabel("run time (UTC)")
     ax.set_ylabel(f"recommended model, 1 = {what}")
-    ax.set_title(title)
+    ax.set_title("\n".join(lines), fontsize=10)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize="small", loc="upper left")  # fixed: no search over the points
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     literal_text(fig)  # record names are text, not mathtext
+    return fig
+
+
+def trend_png(frame: pl.DataFrame, title: str, column: str, what: str, *, dpi: int = 100
+              ) -> bytes:
+    """:func:`trend_figure` as PNG bytes."""
+    fig = trend_figure(frame, title, column, what, dpi=dpi)
     buf = BytesIO()
-    fig.savefig(buf, format="png")
+    fig.savefig(buf, format="png", bbox_inches="tight")
     return buf.getvalue()
