@@ -255,3 +255,19 @@ def test_cli_tune_from_results_json(tmp_path, step_result):
     assert p.returncode == 0, p.stderr
     assert "robust" in p.stdout and "Kc" in p.stdout
     assert math.isfinite(float(p.stdout.split("Kc ")[1].split()[0].rstrip(",")))
+
+
+def test_a_dead_time_of_milliseconds_does_not_ask_for_an_extreme_gain():
+    """Stop 40's case: a clean first-order log read with a dead time of 6.6 ms on a 0.1 s
+    grid (its interval reaching 30 ms) gave SIMC's tight PI Kc 113 (T/(2 K theta)),
+    unstable over the interval. The settings given hold there instead: a gain about a
+    quarter of it (Kc 30), stable on every set, the default kept beside them."""
+    m = ProcessModel("first_order", {"K": 2.0, "T": 3.0, "delay": 0.0066})
+    ci = {"K": (1.98, 2.02), "T": (2.95, 3.05), "delay": (0.0, 0.03)}
+    tight = tune(m, TIGHT, ci95=ci)
+    assert tight.controller.Kc == pytest.approx(3.0 / (2 * 2.0 * 0.0066))
+    assert tight.verdict in ("fragile", "unstable_in_interval")
+    t = tune(m, ci95=ci)
+    assert t.replaced.settings.controller == tight.controller
+    assert t.verdict == "robust" and t.worst.stable and t.worst.ms <= 2.0
+    assert t.controller.Kc < 0.3 * tight.controller.Kc
