@@ -156,8 +156,8 @@ def test_dollar_and_tex_in_names_units_title_draw(hostile_run):
     d, result = hostile_run
     assert result.exit_code == 0, result.output
     pngs = sorted((d / "out" / "plots").glob("*.png"))
-    # overview, ranking, identification and validation overlays, and the tuned loop
-    assert len(pngs) == 5
+    # compare, overview, ranking, identification and validation overlays, the tuned loop
+    assert len(pngs) == 6
     assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
     assert "Glyph" not in result.stderr and "Traceback" not in result.output
 
