@@ -117,6 +117,21 @@ def overview(record: Record, events, roles, *, dpi: int = DPI) -> bytes:
     return png_of(fig, dpi)
 
 
+def _output_axes(ax, record: Record, sl: slice, t, title: str, events, roles, *,
+                 ncol: int = 1) -> None:
+    """The output axes of an overlay: the events over ``sl`` shaded, the time span, the
+    labels, the title, the grid and the legend beside the axes."""
+    if events:
+        _shade(ax, record, [e for e in events if e.i_start < sl.stop and e.i_end > sl.start],
+               roles or {}, labels=False)
+    ax.set_xlim(t[0], t[-1])
+    ax.set_xlabel(_time_label(record))
+    ax.set_ylabel(_label(record, "output"))
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8, ncol=ncol)
+
+
 def is_heavy(name: str, heavy: str | None) -> bool:
     """Whether the curve ``name`` (``label``, ``label: G(s)`` or ``label (MSE ...)``) is
     the recommended model's, whose label is ``heavy``."""
@@ -149,16 +164,7 @@ def overlay(record: Record, sl: slice, curves: Iterable[tuple[str, np.ndarray]],
         tm = _tu(record, tm)
         ax.plot([tm], [ym], "o", ms=4, color="black")
         ax.annotate(text, (tm, ym), xytext=(4, 4), textcoords="offset points", fontsize=7)
-    if events:
-        _shade(ax, record, [e for e in events if e.i_start < sl.stop and e.i_end > sl.start],
-               roles or {}, labels=False)
-    ax.set_xlim(t[0], t[-1])
-    ax.set_xlabel(_time_label(record))
-    ax.set_ylabel(_label(record, "output"))
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8,
-              ncol=2 if n_curves > 12 else 1)
+    _output_axes(ax, record, sl, t, title, events, roles, ncol=2 if n_curves > 12 else 1)
     return png_of(fig, dpi)
 
 
@@ -193,16 +199,8 @@ def compare(record: Record, sl: slice, yhat: np.ndarray, label: str, fit_pct: fl
     px = columns_of(fig, dpi)
     ax.plot(*decimate(t, y, px), color="#222222", lw=1.0, alpha=0.8, label="measured")
     ax.plot(*decimate(t, yhat, px), color="#1f5fa8", lw=2.2, label=label)
-    if events:
-        _shade(ax, record, [e for e in events if e.i_start < sl.stop and e.i_end > sl.start],
-               roles or {}, labels=False)
-    ax.set_xlim(t[0], t[-1])
-    ax.set_xlabel(_time_label(record))
-    ax.set_ylabel(_label(record, "output"))
-    ax.set_title(f"Compare: measured and the recommended model simulated over the events "
-                 f"(fit {fit_pct:.1f} %)")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8)
+    _output_axes(ax, record, sl, t, "Compare: measured and the recommended model simulated "
+                 f"over the events (fit {fit_pct:.1f} %)", events, roles)
     resid = y - yhat
     n = int(np.count_nonzero(np.isfinite(resid)))
     acf = residual_acf(resid)
