@@ -28,7 +28,7 @@ from .analysis import AnalysisOptions, analyse
 from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
-from .files import check_writable, refuse_input, through_link
+from .files import check_writable, refuse_input, same_file, through_link
 from .gate import (
     Comparison,
     Tolerances,
@@ -288,13 +288,31 @@ class _Plan:
     past: pl.DataFrame | None
 
 
+def _not_outputs(specs: list[RecordSpec], outputs: dict[str, Path | None]
+                 ) -> list[RecordSpec]:
+    """The records without the run's own ``--history`` or ``--junit`` file, when a data
+    folder or pattern matched it (issue 31: a history kept in the data folder was read as
+    a log the next night), each skipped one said on stderr; when nothing else is left the
+    records stay, and the output is refused as replacing its input."""
+    kept = [s for s in specs if s.dataset or not any(
+        p is not None and same_file(Path(s.path), Path(p)) for p in outputs.values())]
+    if not kept or len(kept) == len(specs):
+        return specs
+    for s in specs:
+        if s not in kept:
+            what = next(w for w, p in outputs.items()
+                        if p is not None and same_file(Path(s.path), Path(p)))
+            log.warning("%s: the run's %s, not read as a log", s.path, what)
+    return kept
+
+
 def _plan(cfg: RunConfig, out_dir: Path | None, executor: str, baseline: Path | None,
           junit: Path | None, history: Path | None) -> _Plan:
     """The checks before the batch: the executor, the records, the output folder and
     files; the baseline (one of another config, records or methods is refused) and the
     history read."""
     check_executor(executor)
-    specs = resolve_specs(cfg)
+    specs = _not_outputs(resolve_specs(cfg), {"history": history, "JUnit file": junit})
     target = out_dir or cfg.report_folder()  # name is a label: never a path
     report.check_target(target)
     inputs = [(Path(cfg.source), "the config")] if cfg.source != "<config>" else []
