@@ -12,7 +12,9 @@ same plants with their gains 10 % higher against each first night. Prints the ma
 the pairs that pass (claim: at least 19 of 20), the drifted nights in which every
 record's gain is a finding (claim: 20 of 20), the other methods' findings (information:
 what made the gate red before it was scoped), and the findings that failed a fresh-noise
-pair. ``tests/test_gate_scope.py`` is the same check on 3 plants a night.
+pair. ``--keep FILE`` writes every night's results (one JSON document a line: the fresh
+nights, then the drifted ones) to try the gate's rules on without analysing again.
+``tests/test_gate_scope.py`` is the same check on 3 plants a night.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ def main() -> None:
     ap.add_argument("--plants", type=int, default=20)
     ap.add_argument("--pairs", type=int, default=20)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--keep", default=None, help="write the nights' results (JSON lines)")
     a = ap.parse_args()
     print(f"{a.plants} plants a night, {a.pairs} pairs; {a.workers} workers; "
           f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}")
@@ -51,6 +54,10 @@ def main() -> None:
     with ProcessPoolExecutor(a.workers) as ex:
         docs = list(ex.map(night, jobs))
     fresh, drifted = docs[:a.pairs + 1], docs[a.pairs + 1:]
+    if a.keep:
+        with open(a.keep, "w", encoding="utf-8") as out:
+            for doc in docs:
+                out.write(doc.model_dump_json() + "\n")
     passed, other, failures = 0, 0, []
     for k, (base, cur) in enumerate(zip(fresh, fresh[1:], strict=False)):
         c = compare(cur, base)

@@ -28,11 +28,11 @@ import numpy as np
 from .events import EventData
 from .fit import Fit
 from .grading import grade, information_criteria, no_usable_model, per_step, recommend
-from .methods import REGISTRY, event_fit, identify, select_methods
+from .methods import REGISTRY, event_fit, identify, select_methods, span_refinement
 from .metrics import mse
 from .outliers import without_outliers
 from .record import Record
-from .refine import RefineOptions, event_states, held_out_events, span_fit
+from .refine import RefineOptions, event_states, held_out_events
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
 from .tuning import RecordTuning, TuningOptions, model_trust, tune
@@ -203,9 +203,8 @@ def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
     models = [f.model for f in fits if f.ok and f.event == ident[0]]
     for mid in dict.fromkeys(methods):
         t0 = time.perf_counter()
-        fit = span_fit(record, events, ident, mid, REGISTRY[mid].structures[0],
-                       models=models, states=states, cross_validation=opt.events == "all",
-                       options=opt.refine)
+        fit = span_refinement(record, events, ident, mid, models=models, states=states,
+                              cross_validation=opt.events == "all", options=opt.refine)
         if fit.ok:
             metrics = score(fit.model, record, events, events[ident[0]], validation,
                             fit.balance_point)

@@ -73,3 +73,19 @@ def test_the_recommended_curve_is_the_heavy_one_by_its_label():
     assert not is_heavy("lsq_first_order_x: 2/(10s+1)", "lsq_first_order")
     assert not is_heavy("first_order: 2/(10s+1)", "lsq_first_order")
     assert not is_heavy("first_order", None)
+
+
+def test_only_the_recommended_fits_own_event_draws_it_heavy():
+    """The review's case: a label does not name the event, so the same method's fit on
+    another event was drawn heavy there too."""
+    from pipeline.analysis import AnalysisOptions, analyse
+    from pipeline.report.sections import _heavy
+    from pipeline.synth.montecarlo import PLANTS, Condition, mc_record
+
+    res = analyse(mc_record(PLANTS["fopdt_delay0.5"], Condition(), 0),
+                  AnalysisOptions(events="all"))
+    rec = res.recommended
+    assert _heavy(res, rec.event) == rec.method or _heavy(res, rec.event).startswith(
+        rec.method)
+    others = [i for i in res.identification_events if i != rec.event]
+    assert others and all(_heavy(res, i) is None for i in others)

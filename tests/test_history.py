@@ -288,3 +288,19 @@ def test_trend_titles_fit_and_twelve_records_get_twelve_colours():
     colours = {tuple(line.get_color()) for line in ax.get_lines()[1:]}
     assert len(ax.get_lines()) - 1 == 12 and len(colours) == 12
     assert [x.get_text() for x in ax.get_legend().get_texts()] == names
+
+
+def test_a_title_of_any_length_draws():
+    """The review's case: a 1,300-character title pushed the top margin below the bottom
+    one (ValueError); it is cut to four lines."""
+    from datetime import datetime, timedelta
+
+    import polars as pl
+
+    from pipeline.report.history_plots import trend_figure
+
+    t0 = datetime(2026, 12, 1)
+    frame = pl.DataFrame({"time": [t0 + timedelta(days=d) for d in range(3)],
+                          "record": ["r"] * 3, "ratio": [1.0, 1.1, 1.2]})
+    fig = trend_figure(frame, "a_long_record_name " * 70, "K", "the baseline")
+    assert fig.axes[0].title.get_text().count("\n") == 3

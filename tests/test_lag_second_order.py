@@ -116,3 +116,14 @@ def test_the_step_response_is_the_partial_fraction_form():
         m = ProcessModel("lag_second_order", p)
         ref = control.step_response(m.transfer_function(), T=t).outputs
         assert np.max(np.abs(m.unit_step(t) - ref)) < 1e-9
+
+
+def test_no_lag_and_pair_on_smooth_events_in_joint_and_carried_fits():
+    """The review's case: with every event identifying, the joint fit and the fits of
+    events on a tail (a carried state) went past the ring check. A two-lag plant rings
+    nowhere: not applicable everywhere."""
+    rec = mc_record(MC_PLANTS["two_lags"], Condition(kind="white"), 0)
+    res = analyse(rec, AnalysisOptions(events="all"))
+    fits = [f for f in res.fits if f.method == "lsq_lag_second_order"]
+    assert len(fits) >= 2 and any(f.events for f in fits)
+    assert all(f.status == "not_applicable" and "does not ring" in f.reason for f in fits)

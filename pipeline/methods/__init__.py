@@ -14,7 +14,7 @@ for _m in pkgutil.iter_modules(__path__):
         importlib.import_module(f"{__name__}.{_m.name}")
 
 from .base import moving_the_other_way, undershoot  # noqa: E402 (after the registrations)
-from .lsq import event_fit  # noqa: E402
+from .lsq import event_fit, span_refinement  # noqa: E402
 from .second_order import light_ring  # noqa: E402
 
 #: Display order: DESIGN.md's catalogue (registration order is the file listing).
@@ -44,4 +44,5 @@ def select_methods(requested: list[str] | str | None, event_kind: str) -> list[s
 
 
 __all__ = ["REGISTRY", "MethodInfo", "MethodResult", "event_fit", "identify", "light_ring",
-           "method_ids", "moving_the_other_way", "register", "select_methods", "undershoot"]
+           "method_ids", "moving_the_other_way", "register", "select_methods",
+           "span_refinement", "undershoot"]

@@ -133,7 +133,31 @@ def event_fit(record: Record, events: Sequence[Event], i: int, method: str, *,
     ev = events[i]
     if states[i] != "rest" and carry_source(list(states), i) is not None \
             and REGISTRY[method].accepts(ev.kind):
-        return span_fit(record, events, [i], method, REGISTRY[method].structures[0],
-                        models=models, states=states, options=options)
+        return span_refinement(record, events, [i], method, models=models, states=states,
+                               options=options)
     return identify(EventData.from_event(record, ev), method, models=models, state=states[i],
                     options=options)
+
+
+def span_refinement(record: Record, events: Sequence[Event], ident: Sequence[int],
+                    method: str, *, models: Sequence[ProcessModel], states: Sequence[str],
+                    cross_validation: bool = False, options: RefineOptions | None = None
+                    ) -> Fit:
+    """:func:`pipeline.refine.span_fit` of refinement ``method`` over the events
+    ``ident``; a ``rings`` structure (``lag_second_order``) only when one of them rings,
+    started from its rings too (:func:`ring_starts`), as on one event alone."""
+    structure = REGISTRY[method].structures[0]
+    if STRUCTURES[structure].rings:
+        starts, reason = [], None
+        for i in ident:
+            try:
+                starts += ring_starts(EventData.from_event(record, events[i]), models,
+                                      structure)
+            except NotApplicable as exc:
+                reason = reason or str(exc)
+        if not starts:
+            return Fit(method, ident[0], "not_applicable", reason,
+                       events=tuple(ident) if len(ident) > 1 else ())
+        models = [*models, *starts]
+    return span_fit(record, events, ident, method, structure, models=models, states=states,
+                    cross_validation=cross_validation, options=options)

@@ -165,7 +165,7 @@ def trend_figure(frame: pl.DataFrame, title: str, column: str, what: str, *,
     """One line per record of ``ratio`` against ``time``: a distinct colour per record
     (tab10, then tab20 beyond ten; a dashed second round beyond twenty), the legend
     beside the axes (not over the lines), the title wrapped to the figure."""
-    lines = textwrap.wrap(title, TITLE_WIDTH) or [""]
+    lines = textwrap.wrap(title, TITLE_WIDTH, max_lines=4, placeholder=" ...") or [""]
     fig = Figure(figsize=(8.0, 4.0 + 0.2 * (len(lines) - 1)), dpi=dpi)
     FigureCanvasAgg(fig)
     # the top margin makes room for the title's lines; the legend beside the axes is

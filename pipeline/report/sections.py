@@ -30,6 +30,7 @@ from .controller import (
 )
 from .tables import (
     consistency_table,
+    display_model,
     events_table,
     fmt,
     ident_summary_table,
@@ -150,7 +151,8 @@ def _compare(res: RecordResult, add, anchor: str, dpi: int):
     sl, yhat, fit = got
     f = res.recommended
     return add(f"{anchor}_compare", "Compare", plots.compare(
-        res.record, sl, yhat, f"{_label(f)}: {f.model.text(3)}", fit, events=res.events,
+        res.record, sl, yhat, f"{_label(f)}: {display_model(f, res.record).text(3)}", fit,
+        events=res.events,
         roles=res.roles, dpi=dpi))
 
 
@@ -190,9 +192,12 @@ def _label(f) -> str:
     return fit_label(f.method, f.event, list(f.events))
 
 
-def _heavy(res: RecordResult) -> str | None:
-    """The curve label of the recommended model (drawn heavier in every overlay)."""
-    return _label(res.recommended) if res.recommended is not None else None
+def _heavy(res: RecordResult, event: int) -> str | None:
+    """The curve label of the recommended model on the overlays of ``event``'s fits
+    (drawn heavier), None on another event's (a label does not name the event: the same
+    method's fit on another event has the same one)."""
+    f = res.recommended
+    return _label(f) if f is not None and f.event == event else None
 
 
 def _marks(diag: dict) -> list[tuple[float, float, str]]:
@@ -239,15 +244,16 @@ def _ident_context(res: RecordResult, i: int, mode: str, add, anchor: str, dpi: 
         out["figures"].append(add(
             f"{anchor}_e{i}_ident_{order}", f"Identification event {i}: {label}",
             plots.overlay(rec, sl, curves, f"Identification event {i}: measured vs {label}",
-                          marks=marks, heavy=_heavy(res), dpi=dpi)))
+                          marks=marks, heavy=_heavy(res, i), dpi=dpi)))
         if validation:
             out["figures"].append(add(
                 f"{anchor}_e{i}_valid_{order}", f"Validation events: {label}",
-                _validation_overlay(res, fits, validation, label, dpi)))
+                _validation_overlay(res, fits, validation, label, dpi, _heavy(res, i))))
     return out
 
 
-def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) -> bytes:
+def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int,
+                        heavy: str | None = None) -> bytes:
     rec = res.record
     lo = min(res.events[v].i_start for v in validation)
     hi = max(res.events[v].i_end for v in validation)
@@ -270,7 +276,7 @@ def _validation_overlay(res: RecordResult, fits, validation, label, dpi: int) ->
     return plots.overlay(rec, slice(lo, hi), curves(),
                          f"Validation: measured vs {label}, simulated from each run's "
                          "operating point", events=res.events, roles=res.roles,
-                         heavy=_heavy(res), dpi=dpi)
+                         heavy=heavy, dpi=dpi)
 
 
 def controller_context(res: RecordResult, mode: str, add, anchor: str, dpi: int

@@ -314,6 +314,7 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
     if held is not None:
         # the rule's default tau_c was not asked for by name: give the settings that hold
         # over the interval, and say what the default would have been
+        margins_default = margins
         replaced = Replaced(settings, verdict, tuple(reasons),
                             worst.ms if worst is not None and worst.stable else math.inf,
                             settings_spread(model, settings, opt, sets or [], h))
@@ -322,7 +323,7 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
                                                      corners, trusted, why)
         reasons.insert(0, f"the rule's default tau_c ({replaced.settings.tau_c:.4g} s: "
                        f"{_settings_text(replaced.settings.controller)}) is "
-                       f"{VERDICT_WORDS.get(replaced.verdict, replaced.verdict)} "
+                       f"{_verdict_words(replaced, margins_default)} "
                        f"({replaced.reasons[0]}); "
                        f"tau_c = {settings.tau_c:.4g} s is the fastest whose worst case "
                        f"keeps Ms at or below {FRAGILE_MS:g} (tau_c: tight keeps the "
@@ -378,6 +379,14 @@ def _alternative(model: ProcessModel, opt: TuningOptions, sets, h: float,
     except ValueError:
         return None, None
     return alt, worst_case(model, alt.controller, sets).ms
+
+
+def _verdict_words(replaced: Replaced, margins: Margins) -> str:
+    """The default settings' verdict in a sentence: "unstable" when the loop is unstable
+    on the model itself, "unstable over the interval" when only on sets inside it."""
+    if not margins.stable:
+        return "unstable"
+    return VERDICT_WORDS.get(replaced.verdict, replaced.verdict)
 
 
 def _settings_text(c: Controller) -> str:
