@@ -102,7 +102,8 @@ def test_verdict_worse_action_flip_kind_change_and_rule_change(nights):
     inside = b.tuning.controller.model_copy(update={"Kc": kc + 0.4 * (hi - lo)})
     assert tuning_findings(b.name, with_tuning(controller=inside), b, key,
                            Tolerances(param_tols={"Kc": 0.0})) == []
-    outside = b.tuning.controller.model_copy(update={"Kc": kc + 1.0 * (hi - lo)})
+    # beyond SPREAD_FACTOR (1.4) times the combined half-widths, sqrt(2) (hi - lo)/2
+    outside = b.tuning.controller.model_copy(update={"Kc": kc + 1.2 * (hi - lo)})
     assert [f.parameter for f in tuning_findings(
         b.name, with_tuning(controller=outside), b, key,
         Tolerances(param_tols={"Kc": 0.0}))] == ["Kc"]
@@ -138,3 +139,21 @@ def test_held_settings_are_compared_by_their_default(nights):
     found = tuning_findings(b.name, night(held, moved), b, key, tol)
     assert [f.parameter for f in found] == ["Kc"]
     assert "the rule's default tuned Kc drifted" in found[0].message
+
+
+
+def test_settings_from_another_recommended_structure_are_not_compared(nights):
+    """gate_nights' case: a lead-lag recommended one night and a first-order model the
+    next gave SIMC settings 25 % apart on the same plant; the change is information, the
+    model's own findings say whether it moved. With the model drifted it is compared."""
+    base, _, _ = nights
+    b = base.records[0]
+    key = (b.recommended.event, b.recommended.label)
+    other = b.recommended.model_copy(update={"structure": "lead_lag"})
+    moved = b.tuning.controller.model_copy(update={"Kc": 2.0 * b.tuning.controller.Kc})
+    cur = b.model_copy(update={"recommended": other, "tuning": b.tuning.model_copy(
+        update={"controller": moved})})
+    found = tuning_findings(b.name, cur, b, key, Tolerances())
+    assert [(f.kind, f.parameter) for f in found] == [("new", "structure")]
+    assert [f.parameter for f in tuning_findings(b.name, cur, b, key, Tolerances(),
+                                                 model_drifted=True)] == ["Kc"]
