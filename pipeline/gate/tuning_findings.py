@@ -79,8 +79,7 @@ def tuning_findings(name: str, cur: RecordDoc, base: RecordDoc, recommended, tol
     elif (b.controller.Kc > 0) != (c.controller.Kc > 0):
         out.append(finding("tuning_drift", "action", b.action, c.action,
                            f"the controller action flipped {b.action} -> {c.action}"))
-    elif COMPARE_ACROSS_STRUCTURES is False and not model_drifted and \
-            _structure(base) != _structure(cur):
+    elif not model_drifted and _structure(base) != _structure(cur):
         # information: a rule reads two structures differently (SIMC's Kc on a lead-lag
         # and on a first-order model of the same step response differ by 25 % and more);
         # whether the model moved is the model's own findings' to say
@@ -95,10 +94,6 @@ def tuning_findings(name: str, cur: RecordDoc, base: RecordDoc, recommended, tol
                            f"the tuning verdict got worse: {b.verdict} -> {c.verdict} "
                            f"({'; '.join(c.reasons) or 'no reason given'})"))
     return out
-
-
-#: Whether settings tuned from two different recommended structures are compared.
-COMPARE_ACROSS_STRUCTURES = False
 
 
 def _structure(doc: RecordDoc) -> str | None:

@@ -307,14 +307,15 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
     # the verdict's limit); given by name or in seconds: the robust choice beside them
     held = alt = alt_ms = None
     if opt.tau_c is None:
-        held, _ = _alternative(model, opt, sets, h, verdict, FRAGILE_MS)
+        held = _alternative(model, opt, sets, h, verdict, FRAGILE_MS)
     else:
-        alt, alt_ms = _alternative(model, opt, sets, h, verdict, MS_TARGET)
+        alt = _alternative(model, opt, sets, h, verdict, MS_TARGET)
+        alt_ms = worst_case(model, alt.controller, sets).ms if alt is not None else None
     replaced = None
     if held is not None:
         # the rule's default tau_c was not asked for by name: give the settings that hold
         # over the interval, and say what the default would have been
-        margins_default = margins
+        default_words = _verdict_words(verdict, margins)
         replaced = Replaced(settings, verdict, tuple(reasons),
                             worst.ms if worst is not None and worst.stable else math.inf,
                             settings_spread(model, settings, opt, sets or [], h))
@@ -323,7 +324,7 @@ def tune(model: ProcessModel, options: TuningOptions | None = None, *,
                                                      corners, trusted, why)
         reasons.insert(0, f"the rule's default tau_c ({replaced.settings.tau_c:.4g} s: "
                        f"{_settings_text(replaced.settings.controller)}) is "
-                       f"{_verdict_words(replaced, margins_default)} "
+                       f"{default_words} "
                        f"({replaced.reasons[0]}); "
                        f"tau_c = {settings.tau_c:.4g} s is the fastest whose worst case "
                        f"keeps Ms at or below {FRAGILE_MS:g} (tau_c: tight keeps the "
@@ -361,32 +362,30 @@ def _evaluate(model: ProcessModel, c: Controller, sets, corners: int, trusted: b
 
 
 def _alternative(model: ProcessModel, opt: TuningOptions, sets, h: float,
-                 verdict: TuningVerdict, target: float
-                 ) -> tuple[RuleSettings | None, float | None]:
-    """The fastest tau_c whose worst case keeps Ms at ``target`` and that worst-case Ms,
-    beside settings that are fragile or unstable over the interval, when the rule has a
-    tau_c to choose and no Ms target was asked for (None otherwise). With ``target`` at
-    :data:`FRAGILE_MS`, the verdict's own limit, the settings in place of the default are
-    continuous in the data (a default whose worst case is just below the limit and one
-    just above it give nearly the same settings: fresh noise does not make the gate's
-    tuned Kc jump); with :data:`MS_TARGET`, what an engineer who asked for tau_c by name
-    is offered beside it."""
+                 verdict: TuningVerdict, target: float) -> RuleSettings | None:
+    """The fastest tau_c whose worst case keeps Ms at ``target``, beside settings that
+    are fragile or unstable over the interval, when the rule has a tau_c to choose and no
+    Ms target was asked for (None otherwise). With ``target`` at :data:`FRAGILE_MS`, the
+    verdict's own limit, the settings in place of the default are continuous in the data
+    (a default whose worst case is just below the limit and one just above it give nearly
+    the same settings: fresh noise does not make the gate's tuned Kc jump); with
+    :data:`MS_TARGET`, what an engineer who asked for tau_c by name is offered beside
+    it."""
     if verdict not in ("fragile", "unstable_in_interval") or not sets or len(sets) < 2 \
             or opt.ms_target is not None or opt.rule == "amigo":
-        return None, None
+        return None
     try:
-        alt = _tau_c_for_target(model, replace(opt, ms_target=target), sets, h)
+        return _tau_c_for_target(model, replace(opt, ms_target=target), sets, h)
     except ValueError:
-        return None, None
-    return alt, worst_case(model, alt.controller, sets).ms
+        return None
 
 
-def _verdict_words(replaced: Replaced, margins: Margins) -> str:
-    """The default settings' verdict in a sentence: "unstable" when the loop is unstable
-    on the model itself, "unstable over the interval" when only on sets inside it."""
+def _verdict_words(verdict: TuningVerdict, margins: Margins) -> str:
+    """A verdict in a sentence: "unstable" when the loop is unstable on the model itself,
+    "unstable over the interval" when only on sets inside it."""
     if not margins.stable:
         return "unstable"
-    return VERDICT_WORDS.get(replaced.verdict, replaced.verdict)
+    return VERDICT_WORDS.get(verdict, verdict)
 
 
 def _settings_text(c: Controller) -> str:
