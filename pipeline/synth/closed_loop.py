@@ -58,3 +58,111 @@ def pi_loop_record(*, K: float = 2.0, T: float = 10.0, delay: float = 1.0,
             u[k] = u[k - 1] + Kc * (e - e_prev) + Kc * dt / Ti * e
         e_prev = e
     return make_record(t, u, x + v, name=name, source=f"<synthetic {name}>")
+
+
+#: Plants of the closed-loop bench (:func:`loop_record`): continuous transfer functions
+#: ``num/den`` (coefficients, highest power first) and a dead time, with a controller
+#: tuned for each by SIMC (Skogestad 2003, Table 1; the integrating rule for the
+#: unstable lags, which the paper's sec. 5 treats as integrating when tau1 >> theta).
+LOOP_PLANTS: dict[str, tuple[tuple[float, ...], tuple[float, ...], float]] = {
+    "fopdt": ((2.0,), (10.0, 1.0), 1.0),
+    "two_lags": ((1.0,), (24.0, 11.0, 1.0), 1.0),            # 1/((8s+1)(3s+1))
+    "integrator_lag": ((0.2,), (3.0, 1.0, 0.0), 2.0),         # 0.2/(s(3s+1))
+    "unstable": ((1.0,), (10.0, -1.0), 0.5),                  # 1/(10s-1)
+    "unstable_lag": ((1.0,), (20.0, 8.0, -1.0), 0.2),         # 1/((10s-1)(2s+1))
+}
+
+#: SIMC settings (ideal form: Kc, Ti, Td) per plant of :data:`LOOP_PLANTS` with
+#: ``tau_c = theta`` (PI; PID with Td the second lag where there is one; the ideal form of
+#: the series settings, ``Kc (1 + Td/Ti)``, ``Ti + Td``, ``Ti Td / (Ti + Td)``).
+def _series(kc: float, ti: float, td: float) -> tuple[float, float, float]:
+    return kc * (1 + td / ti), ti + td, ti * td / (ti + td)
+
+
+LOOP_TUNINGS: dict[str, dict[str, tuple[float, float, float]]] = {
+    "fopdt": {"P": (2.5, math.inf, 0.0), "PI": (2.5, 8.0, 0.0)},
+    "two_lags": {"PI": (4.0, 8.0, 0.0), "PID": _series(4.0, 8.0, 3.0)},
+    "integrator_lag": {"P": (1.25, math.inf, 0.0), "PI": (1.25, 16.0, 0.0),
+                       "PID": _series(1.25, 16.0, 3.0)},
+    "unstable": {"P": (10.0, math.inf, 0.0), "PI": (10.0, 4.0, 0.0)},
+    "unstable_lag": {"PID": _series(12.5, 1.6, 2.0)},
+}
+
+
+def loop_record(plant: str, controller: str, *, detune: float = 1.0, dt: float = 0.1,
+                t_end: float = 300.0, r0: float = 50.0,
+                setpoints: Sequence[tuple[float, float]] = ((20.0, 55.0), (120.0, 47.0),
+                                                            (220.0, 52.0)),
+                loads: Sequence[tuple[float, float]] = (), noise: float = 0.0,
+                noise_phi: float = 0.0, seed: int = 0, name: str | None = None) -> Record:
+    """A closed loop of one of :data:`LOOP_PLANTS` under its :data:`LOOP_TUNINGS`
+    ``controller`` (``P``, ``PI`` or ``PID``; Kc divided by ``detune``), the controller
+    output logged as the input.
+
+    The plant is the ZOH discretisation of its transfer function (``scipy.signal.
+    cont2discrete``) behind a dead time of whole samples, started at rest; the load
+    ``(time, size)`` steps add to the controller output at the plant's input. The
+    controller is the positional ideal PID ``u = u_b + Kc (e + I + D)``, ``I`` the
+    forward-Euler integral of ``e / Ti``, ``D`` the derivative of the measured output
+    (not of the error: no derivative kick) filtered by ``Td / 10``, on the measured output
+    ``y + v``; ``v`` is measurement noise of standard deviation ``noise``, white or AR(1)
+    with ``noise_phi``. The bias ``u_b`` holds the loop at rest at ``r0``.
+    """
+    from scipy.signal import cont2discrete, tf2ss
+
+    num, den, delay = LOOP_PLANTS[plant]
+    kc, ti, td = LOOP_TUNINGS[plant][controller]
+    kc /= detune
+    a, b, c, dd, _ = cont2discrete(tf2ss(num, den), dt, "zoh")
+    a, b, c = np.asarray(a), np.asarray(b).ravel(), np.asarray(c).ravel()
+    d0 = float(np.asarray(dd).ravel()[0])
+    n_state = a.shape[0]
+    n = int(round(t_end / dt)) + 1
+    t = np.arange(n) * dt
+    r = np.full(n, float(r0))
+    for t_c, level in sorted(setpoints):
+        r[t >= t_c - 1e-9] = level
+    load = np.zeros(n)
+    for t_c, size in sorted(loads):
+        load[t >= t_c - 1e-9] += size
+    integrating = den[-1] == 0.0
+    static = 0.0 if integrating else num[-1] / den[-1]
+    u_rest = 0.0 if integrating else r0 / static
+    # the state at rest: x = A x + B u, y = C x + D u = r0 (an integrator: the state whose
+    # output is r0 with u = 0)
+    if integrating:
+        x = np.linalg.lstsq(np.vstack([a - np.eye(n_state), c]), np.r_[np.zeros(n_state),
+                            r0], rcond=None)[0]
+    else:
+        x = np.linalg.solve(np.eye(n_state) - a, b * u_rest)
+    rng = np.random.default_rng(seed)
+    w = rng.normal(0.0, noise * math.sqrt(1.0 - noise_phi**2), n) if noise > 0 else np.zeros(n)
+    v = lfilter_ar1(w, noise_phi, rng.normal(0.0, noise) if noise > 0 else 0.0)
+    lag = int(round(delay / dt))
+    u = np.full(n, u_rest)
+    y = np.empty(n)
+    tf = td / 10.0
+    integral, deriv, y_prev = 0.0, 0.0, None
+    for k in range(n):
+        u_plant = (u[k - 1 - lag] if k - 1 - lag >= 0 else u_rest) + (load[k - 1] if k else 0)
+        if k:
+            x = a @ x + b * u_plant
+        y[k] = float(c @ x) + d0 * u_plant
+        m = y[k] + v[k]
+        e = r[k] - m
+        if td > 0 and y_prev is not None:
+            deriv = tf / (tf + dt) * deriv - td / (tf + dt) * (m - y_prev)
+        y_prev = m
+        u[k] = u_rest + kc * (e + integral + deriv)
+        if math.isfinite(ti):
+            integral += dt / ti * e
+    label = name or f"{plant} {controller}"
+    return make_record(t, u, y + v, name=label, source=f"<synthetic {label}>")
+
+
+def lfilter_ar1(w: np.ndarray, phi: float, x0: float) -> np.ndarray:
+    """AR(1) noise ``v[k] = phi v[k-1] + w[k]`` from ``v[-1] = x0`` (white when phi is 0)."""
+    if phi == 0.0:
+        return w.copy()
+    from scipy.signal import lfilter
+    return lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])[0]

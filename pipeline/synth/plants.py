@@ -24,6 +24,21 @@ def staircase(t: np.ndarray, u0: float, changes: Sequence[tuple[float, float]]) 
     return u
 
 
+def ramped_staircase(t: np.ndarray, u0: float, changes: Sequence[tuple[float, float]],
+                     ramp: float) -> np.ndarray:
+    """:func:`staircase` whose each change is a ramp of ``ramp`` (time units) from the
+    level before it (an actuator with a rate limit, a valve that opens over seconds, a
+    boiler switched in: real steps are rarely ideal); ``ramp`` 0 is the staircase."""
+    if ramp <= 0:
+        return staircase(t, u0, changes)
+    u, before = np.full(t.size, float(u0)), float(u0)
+    for t_c, level in sorted(changes):
+        share = np.clip((t - t_c) / ramp, 0.0, 1.0)
+        u = np.where(t >= t_c, before + (level - before) * share, u)
+        before = level
+    return u
+
+
 def pulse(t: np.ndarray, u0: float, t_on: float, width: float, height: float) -> np.ndarray:
     """Input at ``u0`` with a rectangular pulse of ``height`` above it on [t_on, t_on+width)."""
     u = np.full(t.size, float(u0))
