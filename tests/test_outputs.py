@@ -339,3 +339,39 @@ def test_a_replaced_file_keeps_its_mode(tmp_path, run, umask022):
     j.chmod(0o660)
     write_atomic(j, b"<x/>", "JUnit file")
     assert _mode(j) == 0o660 and j.read_bytes() == b"<x/>"
+
+
+def test_a_plots_link_is_never_written_through(tmp_path, run):
+    """Issue 31: ``OUT/plots`` a link to a folder outside ``OUT`` made the run delete an
+    earlier run's plot there and write its new plots through it. Now the run is refused
+    before anything is written (exit 2 from the CLI, one line naming the link); the folder
+    the link names and the report folder are untouched. The twin: a real ``plots`` folder
+    is written as before (above)."""
+    out, elsewhere = tmp_path / "out", tmp_path / "elsewhere"
+    _write(out, run, plots_mode="full")
+    listed = json.loads((out / outdir.MANIFEST).read_text())
+    elsewhere.mkdir()
+    for name in listed:  # the link's folder holds files of the names the manifest lists
+        if name.startswith("plots/"):
+            (elsewhere / name.split("/", 1)[1]).write_bytes(b"not yours")
+    before = {p.name: p.read_bytes() for p in elsewhere.iterdir()}
+    report = (out / "report.html").read_bytes()
+    for p in (out / "plots").iterdir():
+        p.unlink()
+    (out / "plots").rmdir()
+    (out / "plots").symlink_to(elsewhere, target_is_directory=True)
+    with pytest.raises(UserError, match="is a link"):
+        _write(out, run, plots_mode="summary")
+    assert {p.name: p.read_bytes() for p in elsewhere.iterdir()} == before
+    assert (out / "report.html").read_bytes() == report
+    # a link made after the checks: publish refuses it too, nothing is staged or moved
+    with pytest.raises(OSError, match="is a link"):
+        outdir.publish(out, {"plots/a.png": b"x", "results.json": b"{}"})
+    assert {p.name: p.read_bytes() for p in elsewhere.iterdir()} == before
+    assert not [p for p in out.iterdir() if p.name.startswith(outdir.STAGING)]
+    csv = tmp_path / "log.csv"
+    csv.write_text(step_csv())
+    res = runner.invoke(app, ["identify", str(csv), "--input", "u", "--output", "y",
+                              "--time", "time", "--out", str(out)])
+    assert res.exit_code == 2 and "is a link" in res.output, res.output
+    assert {p.name: p.read_bytes() for p in elsewhere.iterdir()} == before

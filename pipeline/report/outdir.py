@@ -17,6 +17,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import re
@@ -26,6 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from ..errors import UserError
 from ..files import check_writable, default_mode
 
 #: The fixed names a run writes; one an earlier run's manifest lists and this run does not
@@ -65,9 +67,26 @@ STALE_AGE = 3600.0
 
 def check_target(out_dir: Path) -> None:
     """The report folder and its ``plots/`` can be written (before a batch: a file in the
-    way costs no run); a problem is one :class:`~pipeline.errors.UserError` line."""
+    way costs no run), and ``plots/`` is no link (:func:`plots_link`); a problem is one
+    :class:`~pipeline.errors.UserError` line."""
     check_writable(out_dir, "report folder", folder=True)
+    link = plots_link(Path(out_dir))
+    if link:
+        raise UserError(link)
     check_writable(Path(out_dir) / "plots", "report's plots folder", folder=True)
+
+
+def plots_link(out_dir: Path) -> str | None:
+    """Why ``OUT/plots`` may not be written, when it is a symbolic link (else None): a run
+    writes and removes its plots only inside the output folder, never through a link that
+    may leave it (issue 31: a ``plots`` link made a run delete an earlier run's plot in the
+    folder it pointed to, and write its new plots there)."""
+    plots = out_dir / "plots"
+    if not plots.is_symlink():
+        return None
+    return (f"{plots}: cannot write the report's plots (is a link to {os.readlink(plots)}); "
+            "a run writes its plots only into a folder of its own: remove the link, or "
+            "write the report elsewhere")
 
 
 def remove_stale(out_dir: Path) -> list[Path]:
@@ -113,6 +132,9 @@ def publish(out_dir: Path, files: dict[str, bytes]) -> None:
     first and ``report.html`` last. Raises ``OSError``; the staging folder never stays."""
     order = sorted(files, key=lambda n: (n in OWNED, OWNED.index(n) if n in OWNED else 0))
     out_dir.mkdir(parents=True, exist_ok=True)
+    link = plots_link(out_dir)  # made since check_target: nothing goes through it
+    if link:
+        raise OSError(errno.ELOOP, link)
     remove_stale(out_dir)
     stage = Path(tempfile.mkdtemp(prefix=f"{STAGING}{host_tag()}-{os.getpid()}-", dir=out_dir))
     try:
