@@ -92,7 +92,7 @@ def open_loops(seeds: int):
                         # at the sample, so the output answers in the same sample
                         yield ("open, fast plants logged in the same sample",
                                f"K {K:g} T {T:g} {kind} ramp {ramp:g}",
-                               make_record(tf, np.r_[u[1:], u[-1]], y, name="x",
+                               make_record(tf, np.r_[u[0], u[:-1]], y, name="x",
                                            source="<bench>"))
     for name, plant in PLANTS.items():
         for kind in NOISE_KINDS:

@@ -164,25 +164,6 @@ def test_flag_messages_speak_the_users_time_unit():
     assert "0.25 min after the step" in flag.message
 
 
-def test_spearman_is_scipys_with_ties_and_nan_when_constant():
-    """The closed-loop check's rank correlation (pipeline.grading.ranks, lean in memory) is
-    scipy's spearmanr, ties included (sample-to-sample input changes are mostly 0)."""
-    import math
-
-    from scipy.stats import spearmanr
-
-    from pipeline.grading.ranks import average_ranks, spearman
-    rng = np.random.default_rng(5)
-    for digits in (0, 1, 3):
-        x = np.round(rng.normal(size=5000), digits)
-        y = np.round(-0.4 * x + rng.normal(size=5000), 1)
-        assert spearman(x, y) == pytest.approx(spearmanr(x, y).statistic, abs=1e-12)
-    x, y = rng.normal(size=5000), rng.normal(size=5000)  # no ties
-    assert spearman(x, x + y) == pytest.approx(spearmanr(x, x + y).statistic, abs=1e-12)
-    assert list(average_ranks(np.array([3.0, 1.0, 3.0, 2.0]))) == [3.5, 1.0, 3.5, 2.0]
-    assert math.isnan(spearman(np.ones(10), np.arange(10.0)))
-
-
 def test_a_wide_interval_reads_as_a_number_a_person_can_read():
     """An interval many orders wider than its value (a lag the data do not determine:
     seen on the tank pulse log) is said in times its value, not in a 300-digit

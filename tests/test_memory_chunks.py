@@ -38,11 +38,18 @@ def test_ranks_in_chunks_are_the_average_ranks(chunk, monkeypatch):
         order, new = ranks.sort_groups(x)
         twice = ranks.ranks_of(ranks.narrowed(order), new, doubled=True)
         assert twice.dtype == np.int32 and (twice / 2.0).tobytes() == got.tobytes()
-    x, y = rng.normal(size=5000), np.round(rng.normal(size=5000), 1)
+    # the closed-loop check's signed ranks and their products, whole and in chunks
+    from pipeline.grading import closed_loop
+
+    d = np.round(rng.normal(size=5000), 1)
     monkeypatch.setattr(ranks, "CHUNK", 1 << 20)
-    whole = ranks.spearman(x, y)
+    monkeypatch.setattr(closed_loop, "CHUNK", 1 << 20)
+    whole = closed_loop._signed_ranks(d.copy())
+    dot = closed_loop._dot(whole[1:], whole[:-1])
     monkeypatch.setattr(ranks, "CHUNK", chunk)
-    assert ranks.spearman(x, y) == whole
+    monkeypatch.setattr(closed_loop, "CHUNK", chunk)
+    got = closed_loop._signed_ranks(d.copy())
+    assert np.array_equal(got, whole) and closed_loop._dot(got[1:], got[:-1]) == dot
 
 
 def test_decimation_in_chunks_keeps_the_same_samples(monkeypatch):

@@ -1,18 +1,14 @@
-"""Spearman's rank correlation of two long series, lean in memory.
+"""Average ranks of a long series, lean in memory.
 
-``scipy.stats.spearmanr`` stacks both series, ranks them with ``apply_along_axis`` and
-keeps several record-long temporaries alive at once: for the sample-to-sample changes
-of a long log (:func:`pipeline.grading.closed_loop.closed_loop_flag`), several times the
-record's own arrays. Here each series is ranked on its own (average ranks for ties, as
-``scipy.stats.rankdata(method="average")``) and the temporaries are dropped as soon as
-they are used; the statistic is the Pearson correlation of the ranks (Spearman's rho
-with ties: Kendall & Gibbons, Rank Correlation Methods, 5th ed., 1990, sec. 3.8), the
-same as scipy's to rounding.
+``scipy.stats.rankdata`` keeps several record-long temporaries alive at once: for the
+sample-to-sample changes of a long log (the signed ranks of
+:func:`pipeline.grading.closed_loop.closed_loop_flag`), several times the record's own
+arrays. Here the sort order and where its values change are made first, the series can
+be dropped, and the ranks (average ranks for ties, as ``scipy.stats.rankdata(method=
+"average")``) are filled a chunk at a time.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
@@ -88,30 +84,8 @@ def ranks_of(order: np.ndarray, new: np.ndarray, doubled: bool = False) -> np.nd
     return ranks
 
 
-def centred(ranks: np.ndarray) -> np.ndarray:
-    """``ranks`` less their mean, in place."""
-    ranks -= ranks.mean()
-    return ranks
-
-
-def centred_ranks(x: np.ndarray) -> np.ndarray:
-    """:func:`average_ranks` less their mean."""
-    return centred(average_ranks(np.asarray(x, np.float64)))
-
-
-def rank_correlation(rx: np.ndarray, ry: np.ndarray) -> float:
-    """The Pearson correlation of two :func:`centred_ranks` (NaN when one is constant)."""
-    den = math.sqrt(float(rx @ rx) * float(ry @ ry))
-    return float(rx @ ry) / den if den > 0 else math.nan
-
-
 def has_nan(x: np.ndarray) -> bool:
     """Whether ``x`` holds a NaN (a NaN has no rank: scipy's answer is NaN)."""
     return bool(np.isnan(np.dot(x, x)))
 
 
-def spearman(x: np.ndarray, y: np.ndarray) -> float:
-    """Spearman's rho of ``x`` and ``y`` (NaN when either is constant or holds a NaN)."""
-    if has_nan(x) or has_nan(y):
-        return math.nan
-    return rank_correlation(centred_ranks(x), centred_ranks(y))

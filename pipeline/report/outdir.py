@@ -82,9 +82,13 @@ def plots_link(out_dir: Path) -> str | None:
     may leave it (issue 31: a ``plots`` link made a run delete an earlier run's plot in the
     folder it pointed to, and write its new plots there)."""
     plots = out_dir / "plots"
-    if not plots.is_symlink():
-        return None
-    return (f"{plots}: cannot write the report's plots (is a link to {os.readlink(plots)}); "
+    try:
+        if not plots.is_symlink():
+            return None
+        target = os.readlink(plots)
+    except OSError as exc:  # a folder that cannot be searched; a link gone meanwhile
+        return f"{plots}: cannot check the report's plots folder ({exc.strerror or exc})"
+    return (f"{plots}: cannot write the report's plots (is a link to {target}); "
             "a run writes its plots only into a folder of its own: remove the link, or "
             "write the report elsewhere")
 
@@ -132,7 +136,7 @@ def publish(out_dir: Path, files: dict[str, bytes]) -> None:
     first and ``report.html`` last. Raises ``OSError``; the staging folder never stays."""
     order = sorted(files, key=lambda n: (n in OWNED, OWNED.index(n) if n in OWNED else 0))
     out_dir.mkdir(parents=True, exist_ok=True)
-    link = plots_link(out_dir)  # made since check_target: nothing goes through it
+    link = plots_link(out_dir)  # made since check_target (a narrower race remains)
     if link:
         raise OSError(errno.ELOOP, link)
     remove_stale(out_dir)

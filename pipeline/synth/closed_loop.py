@@ -85,7 +85,7 @@ LOOP_TUNINGS: dict[str, dict[str, tuple[float, float, float]]] = {
     "integrator_lag": {"P": (1.25, math.inf, 0.0), "PI": (1.25, 16.0, 0.0),
                        "PID": _series(1.25, 16.0, 3.0)},
     "unstable": {"P": (10.0, math.inf, 0.0), "PI": (10.0, 4.0, 0.0)},
-    "unstable_lag": {"PID": _series(12.5, 1.6, 2.0)},
+    "unstable_lag": {"PID": _series(12.5, 1.6, 2.0)},  # half SIMC's Kc of 25: less kick
 }
 
 
