@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..record import Record, make_record
+from .montecarlo import ar1_noise
 
 
 def pi_loop_record(*, K: float = 2.0, T: float = 10.0, delay: float = 1.0,
@@ -136,8 +137,8 @@ def loop_record(plant: str, controller: str, *, detune: float = 1.0, dt: float =
     else:
         x = np.linalg.solve(np.eye(n_state) - a, b * u_rest)
     rng = np.random.default_rng(seed)
-    w = rng.normal(0.0, noise * math.sqrt(1.0 - noise_phi**2), n) if noise > 0 else np.zeros(n)
-    v = lfilter_ar1(w, noise_phi, rng.normal(0.0, noise) if noise > 0 else 0.0)
+    v = np.zeros(n) if noise <= 0 else rng.normal(0.0, noise, n) if noise_phi == 0 \
+        else ar1_noise(n, noise, noise_phi, rng)
     lag = int(round(delay / dt))
     u = np.full(n, u_rest)
     y = np.empty(n)
@@ -158,11 +159,3 @@ def loop_record(plant: str, controller: str, *, detune: float = 1.0, dt: float =
             integral += dt / ti * e
     label = name or f"{plant} {controller}"
     return make_record(t, u, y + v, name=label, source=f"<synthetic {label}>")
-
-
-def lfilter_ar1(w: np.ndarray, phi: float, x0: float) -> np.ndarray:
-    """AR(1) noise ``v[k] = phi v[k-1] + w[k]`` from ``v[-1] = x0`` (white when phi is 0)."""
-    if phi == 0.0:
-        return w.copy()
-    from scipy.signal import lfilter
-    return lfilter([1.0], [1.0, -phi], w, zi=[phi * x0])[0]

@@ -123,9 +123,7 @@ def noise(kind: str, n: int, sigma: float, rng: np.random.Generator) -> np.ndarr
     if kind == "white":
         return rng.normal(0.0, sigma, n)
     if kind == "ar1":
-        e = rng.normal(0.0, sigma * math.sqrt(1.0 - AR1_PHI**2), n)
-        x0 = rng.normal(0.0, sigma)
-        return lfilter([1.0], [1.0, -AR1_PHI], e, zi=[AR1_PHI * x0])[0]
+        return ar1_noise(n, sigma, AR1_PHI, rng)
     if kind == "pink":
         f = np.fft.rfftfreq(n)
         spec = rng.normal(size=f.size) + 1j * rng.normal(size=f.size)
@@ -134,6 +132,14 @@ def noise(kind: str, n: int, sigma: float, rng: np.random.Generator) -> np.ndarr
         x = np.fft.irfft(spec, n)
         return x * (sigma / float(np.std(x)))
     raise ValueError(f"unknown noise kind {kind!r}; expected one of {NOISE_KINDS}")
+
+
+def ar1_noise(n: int, sigma: float, phi: float, rng: np.random.Generator) -> np.ndarray:
+    """``n`` samples of AR(1) noise ``v[k] = phi v[k-1] + w[k]`` of marginal standard
+    deviation ``sigma``, started in its stationary distribution."""
+    e = rng.normal(0.0, sigma * math.sqrt(1.0 - phi**2), n)
+    x0 = rng.normal(0.0, sigma)
+    return lfilter([1.0], [1.0, -phi], e, zi=[phi * x0])[0]
 
 
 def mc_record(plant: Plant, condition: Condition, seed: int) -> Record:

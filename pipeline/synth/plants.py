@@ -28,7 +28,8 @@ def ramped_staircase(t: np.ndarray, u0: float, changes: Sequence[tuple[float, fl
                      ramp: float) -> np.ndarray:
     """:func:`staircase` whose each change is a ramp of ``ramp`` (time units) from the
     level before it (an actuator with a rate limit, a valve that opens over seconds, a
-    boiler switched in: real steps are rarely ideal); ``ramp`` 0 is the staircase."""
+    boiler switched in: real steps are rarely ideal); ``ramp`` 0 is the staircase. The
+    changes are at least ``ramp`` apart (each ramp starts from the level before it)."""
     if ramp <= 0:
         return staircase(t, u0, changes)
     u, before = np.full(t.size, float(u0)), float(u0)
