@@ -8,16 +8,20 @@ named by ``PIPELINE_DATASETS_MIRROR`` (``MIRROR/<mirror_path>``), then the offic
 (decompressed when the entry says ``compression: gzip``). The sha256 is checked every
 time; the cache is written atomically. Works the same from a source checkout and from an
 installed wheel, from any folder.
+
+Downloads go through pooch (HTTP(S), FTP and SFTP; retries on a dropped connection or a
+bad hash; decompression; a progress bar on a terminal), imported only when a download is
+needed: it brings requests, which a run from the mirror or the cache never loads.
 """
 
 from __future__ import annotations
 
-import gzip
+import ftplib
 import hashlib
 import os
 import shutil
+import sys
 import tempfile
-import urllib.request
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,6 +33,8 @@ from ..files import default_mode
 MIRROR_ENV = "PIPELINE_DATASETS_MIRROR"
 REGISTRY_ENV = "PIPELINE_DATASETS_REGISTRY"
 CACHE_ENV = "PIPELINE_DATASETS_CACHE"
+#: downloads tried again after the first fails (pooch waits 1 s, then 2 s, ... between)
+RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -146,7 +152,7 @@ def fetch(name: str, *, offline: bool = False) -> Path:
         tried.append(ds.url)
         try:
             return _download(ds, target)
-        except (OSError, ValueError) as exc:
+        except (*ftplib.all_errors, ValueError) as exc:  # requests' errors are OSErrors
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             tried[-1] += f" ({reason})"
     raise UserError(
@@ -167,19 +173,69 @@ def _install(src: Path, target: Path, ds: Dataset) -> Path:
 
 
 def _download(ds: Dataset, target: Path) -> Path:
+    """Fetch ``ds.url`` with pooch into a staging folder beside ``target``, decompress it
+    when the entry says so, check the sha256 of the file as stored and move it into place
+    (so a failed or interrupted download never leaves a file the cache would serve)."""
+    import pooch
+
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".part-")
-    os.close(fd)
+    staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=".part-"))
+    remote = ds.url.rsplit("/", 1)[-1] or ds.file
+    # the registry's sha256 is the stored (decompressed) file's: pooch checks it on a plain
+    # download; a compressed one is checked after decompression, below
+    known = None if ds.compression else f"sha256:{ds.sha256}"
+    fetcher = pooch.create(path=staging, base_url="", registry={remote: known},
+                           urls={remote: ds.url}, retry_if_failed=RETRIES)
+    processor = (pooch.Decompress(method=ds.compression, name=ds.file)
+                 if ds.compression else None)
+    logger = pooch.get_logger()
+    level = logger.level
+    logger.setLevel("WARNING")  # not pooch's "Downloading file ..." lines on every fetch
+    bar = _ProgressBar(ds.name) if sys.stderr.isatty() else False
     try:
-        with urllib.request.urlopen(ds.url, timeout=30) as resp, open(tmp, "wb") as out:
-            stream = gzip.GzipFile(fileobj=resp) if ds.compression == "gzip" else resp
-            shutil.copyfileobj(stream, out)
-        digest = sha256_of(Path(tmp))
+        got = Path(fetcher.fetch(remote, processor=processor, progressbar=bar))
+        digest = sha256_of(got)
         if digest != ds.sha256:
             raise ValueError(f"sha256 mismatch: got {digest}, expected {ds.sha256}")
-        os.chmod(tmp, default_mode())
-        os.replace(tmp, target)
+        os.chmod(got, default_mode())  # the cache is shared like any file
+        os.replace(got, target)
         return target
     finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        logger.setLevel(level)
+        if bar:
+            bar.close()
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+class _ProgressBar:
+    """pooch's custom progress-bar protocol (``total``, ``update``, ``reset``, ``close``),
+    drawn by rich on stderr; pooch's own bar would need tqdm."""
+
+    def __init__(self, label: str):
+        from rich.console import Console
+        from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn
+
+        self._progress = Progress(TextColumn(label), BarColumn(), DownloadColumn(),
+                                  console=Console(stderr=True), transient=True)
+        self._task = self._progress.add_task(label, total=None)
+        self._progress.start()
+        self._open = True
+
+    @property
+    def total(self) -> float | None:
+        return self._progress.tasks[0].total
+
+    @total.setter
+    def total(self, value: float | None) -> None:
+        self._progress.update(self._task, total=value or None)
+
+    def update(self, n: float) -> None:
+        self._progress.advance(self._task, n)
+
+    def reset(self) -> None:
+        self._progress.update(self._task, completed=0)
+
+    def close(self) -> None:
+        if self._open:
+            self._open = False
+            self._progress.stop()
