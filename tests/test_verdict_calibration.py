@@ -26,9 +26,10 @@ CLEAN_PLANTS = ("fopdt_delay0.05", "fopdt_delay2", "two_lags", "underdamped_0.6"
 CLEAN_CONDITIONS = (Condition("white", 0.02, 3.0), Condition("ar1", 0.01, 3.0),
                     Condition("pink", 0.01, 3.0))
 #: The share of clean records each noise colour's recommended model is "ok" on at least.
-#: Measured on this subset: 100 %, 82 % and 93 % (before issue 27: 54 %, 32 %, 43 %); the
-#: issue's goal is 95 %, met for white noise, not yet for AR(1) (phi 0.9).
-OK_AT_LEAST = {"white": 0.95, "ar1": 0.75, "pink": 0.85}
+#: Measured on this subset: 100 %, 89 % and 96 % (before issue 27: 54 %, 32 %, 43 %; before
+#: the held-out misfit allowed for the parameters' spread: 100 %, 82 %, 93 %); the issue's
+#: goal is 95 %, met for white and 1/f noise, not yet for AR(1) (phi 0.9).
+OK_AT_LEAST = {"white": 0.95, "ar1": 0.85, "pink": 0.9}
 SEEDS = 4
 
 #: model selection only (the tuning of the recommended model is tested in test_tuning*)

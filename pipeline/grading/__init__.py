@@ -2,7 +2,8 @@
 log, the closed-loop check, and the recommended model.
 
 - :mod:`.verdicts` - the flag table and the checks that raise them, a verdict per fit
-  (:mod:`.determinacy`: how well the data determine a model's response);
+  (:mod:`.determinacy`: how well the data determine a model's response; :mod:`.heldout`:
+  the misfit on the events a model did not see);
 - :mod:`.consistency` - every step on its own, and what the steps say together (with
   :mod:`.superposition`: one gain per step at shared dynamics);
 - :mod:`.closed_loop` - whether the log looks like a closed loop (with :mod:`.ranks`);

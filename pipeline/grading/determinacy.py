@@ -8,7 +8,10 @@ What matters for the model's use is the response:
   parameter covariance gives (:class:`pipeline.fit.ParameterCovariance`: correlations
   included), from parameter sets drawn from it;
 * :func:`response_change` - for a reading without a covariance: the step response's
-  largest change when one parameter moves to an end of its interval, the others held.
+  largest change when one parameter moves to an end of its interval, the others held;
+* :func:`heldout_spread` - how far the parameters' uncertainty alone moves a
+  refinement's simulation of the events it did not see (what a held-out misfit is judged
+  against beside the noise).
 
 Both are relative to the response's largest magnitude over the window; grading's
 ``wide_ci`` compares them with :data:`pipeline.grading.verdicts.MATERIAL`.
@@ -20,8 +23,11 @@ import math
 
 import numpy as np
 
+from ..events import Event
 from ..fit import Fit
 from ..models import ProcessModel
+from ..record import Record
+from ..validate import heldout_residuals
 
 #: Parameter sets drawn from a refinement's covariance for its response band.
 BAND_DRAWS = 200
@@ -89,3 +95,45 @@ def response_change(fit: Fit, name: str, horizon: float) -> float:
             return math.inf
         worst = max(worst, d)
     return worst
+
+
+def heldout_spread(fit: Fit, record: Record, events: list[Event], heldout: list[int]
+                   ) -> float | None:
+    """The RMS, over the held-out samples, of the standard deviation that the refinement's
+    parameter covariance gives its simulation of the events ``heldout`` (simulated as
+    validation: :func:`pipeline.validate.heldout_residuals`, each run's offset from its
+    warm-up). Linearised: one simulation per principal direction of the covariance, moved
+    one standard deviation along it, the squared changes summed (the prediction variance
+    ``diag(J C J^T)`` by finite differences; Ljung, System Identification, 2nd ed., eq.
+    9.57). An integrating model's gain error grows along a validation run; a lag's error
+    shows where the held-out steps are. None without a covariance (a reading)."""
+    cov = fit.refinement.covariance if fit.is_refined else None
+    if cov is None or not heldout:
+        return None
+    matrix = np.asarray(cov.matrix, dtype=np.float64)
+    z0 = np.asarray(cov.z, dtype=np.float64)
+    if not (np.all(np.isfinite(matrix)) and np.all(np.isfinite(z0))):
+        return math.inf
+    model, balance = fit.model, fit.balance_point
+    _, base = heldout_residuals(model, record, events, heldout, balance)
+    if base.size == 0:
+        return None
+    w, vecs = np.linalg.eigh((matrix + matrix.T) / 2.0)
+    log, scale = np.asarray(cov.log), np.asarray(cov.scale)
+    bounds = model.spec.bounds
+    total = np.zeros(base.size)
+    with np.errstate(all="ignore"):
+        for k in np.flatnonzero(w > 0):
+            z = z0 + math.sqrt(float(w[k])) * vecs[:, k]
+            v = np.where(log, np.exp(np.minimum(z, 700.0)), z * scale)
+            p = {**model.params, **{n: min(max(float(x), bounds.get(n, (-math.inf, math.inf))[0]),
+                                           bounds.get(n, (-math.inf, math.inf))[1])
+                                    for n, x in zip(cov.names, v, strict=True)}}
+            try:
+                _, e = heldout_residuals(ProcessModel(model.structure, p), record, events,
+                                         heldout, balance)
+            except (ValueError, ZeroDivisionError, FloatingPointError, OverflowError):
+                return math.inf
+            total += (e - base) ** 2
+    spread = math.sqrt(float(np.mean(total)))
+    return spread if math.isfinite(spread) else math.inf

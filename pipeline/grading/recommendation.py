@@ -254,8 +254,12 @@ def preference(fit: Fit) -> tuple:
     """How the recommendation orders models it cannot tell apart by their error: the
     better verdict, determined parameters, a refinement (fitted to all the identification
     data, with intervals) over a reading, then the simpler structure."""
-    rank = VERDICTS.index(fit.verdict) if fit.verdict in VERDICTS else 0
-    return (rank, undetermined(fit), not fit.is_refined, complexity(fit))
+    return (_rank(fit), undetermined(fit), not fit.is_refined, complexity(fit))
+
+
+def _rank(fit: Fit) -> int:
+    """The verdict's place in :data:`pipeline.fit.VERDICTS` (ok first; ungraded as ok)."""
+    return VERDICTS.index(fit.verdict) if fit.verdict in VERDICTS else 0
 
 
 def noise_floor(result) -> float:
@@ -309,11 +313,15 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
         return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
                                len(cands), margin)
     diff, se = paired_difference(loaded(chosen, result), loaded(lowest, result), noise)
+    why = (f"within the uncertainty (difference {diff:.3g} +- {se:.2g})"
+           if _rank(lowest.fit) <= _rank(chosen.fit) else
+           f"but its verdict is {lowest.fit.verdict} ("
+           + ", ".join(f.code for f in lowest.fit.flags if f.severity != "info") + ")")
+    kind = lowest.fit.model.structure.replace('_', ' ')
     reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method}, a "
-              f"reading of a {lowest.fit.model.structure.replace('_', ' ')} model, scored "
-              f"{lowest.error:.4g}, within the uncertainty (difference {diff:.3g} +- "
-              f"{se:.2g}), and its structure is represented by its refinement, fitted to "
-              "all the identification data, with intervals")
+              f"reading of {'an' if kind[0] in 'aeiou' else 'a'} {kind} model, scored "
+              f"{lowest.error:.4g}, {why}, and its structure is represented by its "
+              "refinement, fitted to all the identification data, with intervals")
     return Recommendation(chosen.fit.method, chosen.fit.event, reason,
                           events=tuple(chosen.fit.events))
 
@@ -338,14 +346,15 @@ def _by_structure(cands: list[Candidate]) -> list[list[Candidate]]:
 def _representative(group: list[Candidate], noise: float, level: float, result
                     ) -> Candidate:
     """The model that stands for a structure: its best refinement, unless a graphical
-    model of the structure is better by more than the uncertainty (Bonferroni over them:
-    the best of several readings on the same validation noise wins by chance often)."""
+    model of the structure with a verdict no worse is better by more than the uncertainty
+    (Bonferroni over them: the best of several readings on the same validation noise wins
+    by chance often). A reading graded worse than the refinement never stands for it."""
     lsq = [c for c in group if c.fit.is_refined]
     graph = sorted((c for c in group if not c.fit.is_refined), key=lambda c: c.error)
     if not lsq:
         return graph[0]
     rep = min(lsq, key=lambda c: c.error)
-    if graph and graph[0].error < rep.error:
+    if graph and graph[0].error < rep.error and _rank(graph[0].fit) <= _rank(rep.fit):
         diff, se = paired_difference(loaded(rep, result), loaded(graph[0], result), noise)
         if diff > float(stats.norm.ppf(1 - level / (2 * len(graph)))) * se:
             return graph[0]

@@ -32,6 +32,7 @@ from ..results import RecordResult
 from .closed_loop import closed_loop_flag
 from .consistency import gain_flags
 from .determinacy import response_band, response_change
+from .heldout import MISFIT_RATIO, fit_floor, own_rms, validation_misfit
 from .oscillation import oscillation_unmodelled
 
 #: Every flag code, with what it means (the report's legend and the docs read this).
@@ -87,9 +88,6 @@ MOSTLY_SETTLED = 0.8
 #: variation is not a model of the data (unreliable); a misfit beyond the noise alone is a
 #: warning (a quantised or very smooth signal has a tiny noise and a large ratio).
 UNRELIABLE_FIT_PERCENT = 50.0
-#: A model whose RMS misfit is this many noise sigmas off explains the data structurally
-#: wrong (with the right structure the misfit is the noise: ratio ~1).
-MISFIT_RATIO = 3.0
 #: Interval half-width above this fraction of |value| is "wide" (the sign is uncertain at 1).
 WIDE_CI = 0.5
 #: A wide parameter matters (a warning: the data do not determine the model) when the step
@@ -261,7 +259,7 @@ def fit_flags(fit: Fit, result: RecordResult) -> list[Flag]:
     floor = fit_floor(fit, result)
     flags = [_checked(check, fit, ev, rec) for check in checks]
     flags += [_checked(_misfit, fit, ev, rec, floor),
-              _checked(_validation_misfit, fit, result, floor),
+              _checked(validation_misfit, fit, result, floor),
               _checked(_integrating_evidence, fit, result),
               _checked(oscillation_unmodelled, fit, result)]
     return [f for f in flags if f is not None]
@@ -305,58 +303,6 @@ def _integrating_evidence(fit: Fit, result: RecordResult) -> Flag | None:
                 + (f"a ramp that long (the longest: {_t(ramp, rec)})" if ramp else "a ramp")
                 + ": the process is self-regulating, and this model drifts away from the "
                 "data beyond its window.", {"settling_window": settle, "ramp_window": ramp})
-
-
-def own_rms(fit: Fit) -> float:
-    """The RMS error of a fit on its own identification data: a refinement's fit error
-    (its offset and state estimated), else the reading simulated on its event."""
-    mse = fit.refinement.mse_fit if fit.is_refined else fit.metrics.get(
-        "mse_identification", math.nan)
-    return math.sqrt(mse) if math.isfinite(mse) and mse >= 0 else math.nan
-
-
-def fit_floor(fit: Fit, result: RecordResult) -> float:
-    """The smallest RMS error any refinement reaches on the same identification data as
-    ``fit`` (the same events): what the noise, coloured as it is, leaves when some
-    structure of the table describes the response. A misfit is judged against it and the
-    noise estimate together: the noise estimate alone reads slow (AR(1), 1/f) noise as
-    misfit."""
-    same = [own_rms(f) for f in result.fits if f.ok and f.is_refined and f.event == fit.event
-            and tuple(f.events) == tuple(fit.events)]
-    same = [r for r in same if math.isfinite(r)]
-    return min(same) if same else math.nan
-
-
-def _validation_misfit(fit: Fit, result: RecordResult, floor: float) -> Flag | None:
-    """The held-out RMS error (on the validation events; without them, on the events held
-    out from the fit: the cross-validated error, so a model gets the same verdict whichever
-    events identify) beyond :data:`MISFIT_RATIO` times what the data allow: the held-out
-    events' noise, or the fit's own error on its identification data (its colour
-    included), whichever is larger. A model right for its own event that does not carry
-    to the others (an operating-point-dependent gain or dynamics, a drift)."""
-    rec = result.record
-    if result.validation_events:
-        mse = fit.metrics.get("mse_validation", math.nan)
-        held = [result.events[i] for i in result.validation_events]
-    else:
-        mse = fit.metrics.get("mse_cross_validation", math.nan)
-        own = set(fit.events or (fit.event,))
-        held = [result.events[i] for i in result.identification_events if i not in own]
-    noise = float(np.mean([e.noise for e in held])) if held else 0.0
-    ref = max(noise, own_rms(fit) if math.isfinite(own_rms(fit)) else 0.0,
-              floor if math.isfinite(floor) else 0.0)
-    if not math.isfinite(mse) or ref <= 0:
-        return None
-    ratio = math.sqrt(mse) / ref
-    if ratio <= MISFIT_RATIO:
-        return None
-    return Flag("validation_misfit", f"On the events it did not see the model misses the "
-                f"data by {ratio:.1f} times what its own event leaves (RMS "
-                f"{math.sqrt(mse):.3g}{_unit_of_output(rec)} against {ref:.3g}): the plant "
-                "does not behave the same way over the whole log (a gain or dynamics that "
-                "change with the operating point, or a drift); trust it near the conditions "
-                "it was identified at.",
-                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": noise, "reference": ref})
 
 
 def _unit(name: str, rec: Record, fit: Fit) -> str:

@@ -1,0 +1,95 @@
+"""The held-out misfit: a model that does not carry from its own event to the others.
+
+:func:`validation_misfit` raises ``validation_misfit`` (a warning) when the held-out RMS
+error is beyond :data:`MISFIT_RATIO` times what the data and the model allow: the
+held-out events' noise, the fit's own error on its identification data
+(:func:`own_rms`), the best refinement's on the same data (:func:`fit_floor`), and what
+the model's own parameter uncertainty moves its held-out simulation by
+(:func:`pipeline.grading.determinacy.heldout_spread`). :mod:`.verdicts` runs it with the
+other checks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..fit import Fit, Flag
+from ..results import RecordResult
+from .determinacy import heldout_spread
+
+#: A model whose RMS misfit is this many noise sigmas off explains the data structurally
+#: wrong (with the right structure the misfit is the noise: ratio ~1).
+MISFIT_RATIO = 3.0
+
+
+def own_rms(fit: Fit) -> float:
+    """The RMS error of a fit on its own identification data: a refinement's fit error
+    (its offset and state estimated), else the reading simulated on its event."""
+    mse = fit.refinement.mse_fit if fit.is_refined else fit.metrics.get(
+        "mse_identification", math.nan)
+    return math.sqrt(mse) if math.isfinite(mse) and mse >= 0 else math.nan
+
+
+def fit_floor(fit: Fit, result: RecordResult) -> float:
+    """The smallest RMS error any refinement reaches on the same identification data as
+    ``fit`` (the same events): what the noise, coloured as it is, leaves when some
+    structure of the table describes the response. A misfit is judged against it and the
+    noise estimate together: the noise estimate alone reads slow (AR(1), 1/f) noise as
+    misfit."""
+    same = [own_rms(f) for f in result.fits if f.ok and f.is_refined and f.event == fit.event
+            and tuple(f.events) == tuple(fit.events)]
+    same = [r for r in same if math.isfinite(r)]
+    return min(same) if same else math.nan
+
+
+def validation_misfit(fit: Fit, result: RecordResult, floor: float) -> Flag | None:
+    """The held-out RMS error (on the validation events; without them, on the events held
+    out from the fit: the cross-validated error, so a model gets the same verdict whichever
+    events identify) beyond :data:`MISFIT_RATIO` times what the data allow: the held-out
+    events' noise, or the fit's own error on its identification data (its colour
+    included), whichever is larger. A model right for its own event that does not carry
+    to the others (an operating-point-dependent gain or dynamics, a drift). Beside the
+    noise, the misfit is judged against what the model's own parameter uncertainty moves
+    its held-out simulation by (:func:`pipeline.grading.determinacy.heldout_spread`): a
+    model right within its intervals is not flagged for the long validation run an
+    integrator's gain error grows over."""
+    rec = result.record
+    if result.validation_events:
+        mse = fit.metrics.get("mse_validation", math.nan)
+        held_out = list(result.validation_events)
+    else:
+        mse = fit.metrics.get("mse_cross_validation", math.nan)
+        own = set(fit.events or (fit.event,))
+        held_out = [i for i in result.identification_events if i not in own]
+    held = [result.events[i] for i in held_out]
+    noise = float(np.mean([e.noise for e in held])) if held else 0.0
+    ref = max(noise, own_rms(fit) if math.isfinite(own_rms(fit)) else 0.0,
+              floor if math.isfinite(floor) else 0.0)
+    if not math.isfinite(mse) or ref <= 0:
+        return None
+    ratio = math.sqrt(mse) / ref
+    if ratio <= MISFIT_RATIO:
+        return None
+    # what the parameters' own uncertainty moves the held-out simulation by: a model
+    # right within its intervals may miss a long validation run (an integrator's gain).
+    # Cross-validated, the model of all its events stands for its folds' (theirs, from
+    # fewer events, are no more certain: the allowance is not larger than it should be)
+    spread = heldout_spread(fit, rec, result.events, held_out)
+    if spread is not None and not math.isfinite(spread):
+        spread = None  # no finite covariance: no allowance (and no inf in results.json)
+    if spread:
+        ref = math.sqrt(ref * ref + spread * spread)
+        ratio = math.sqrt(mse) / ref
+        if ratio <= MISFIT_RATIO:
+            return None
+    unit = f" {rec.units['output']}" if rec.units.get("output") else ""
+    return Flag("validation_misfit", f"On the events it did not see the model misses the "
+                f"data by {ratio:.1f} times what its own event and its parameters' "
+                f"uncertainty allow (RMS {math.sqrt(mse):.3g}{unit} against "
+                f"{ref:.3g}): the plant does not behave the same way over the whole log (a "
+                "gain or dynamics that change with the operating point, or a drift); trust it "
+                "near the conditions it was identified at.",
+                {"misfit_ratio": ratio, "rms": math.sqrt(mse), "noise": noise, "reference": ref,
+                 **({"spread": spread} if spread is not None else {})})
