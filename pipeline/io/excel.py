@@ -8,11 +8,22 @@ first). Whether its first row is a header is detected as for text (:mod:`.sniff`
 Keys (``data:``, beside the common ones): ``sheet``, ``header``, ``columns`` (names for a
 header-less sheet), and the time and quirk keys of every table
 (:class:`~pipeline.io.table.TableOptions`).
+
+A formula cell is read as the value a spreadsheet program last calculated for it (the
+workbook stores it beside the formula). A workbook written by a library (xlsxwriter,
+openpyxl) stores a placeholder, 0, and asks to be recalculated when opened
+(``fullCalcOnLoad``); a formula may also have no stored value at all. Either is refused
+with the first such cell named (:func:`uncalculated_formula`): read as numbers they would
+be silent zeros.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+import io
+import re
+import zipfile
+from pathlib import Path, PurePosixPath
+from xml.etree import ElementTree
 
 import polars as pl
 
@@ -41,6 +52,7 @@ def read_xlsx_table(path: Path, options: XlsxOptions) -> Table:
     try:
         book = fastexcel.read_excel(str(path))
         sheet = _sheet(book.sheet_names, options.sheet, path)
+        _refuse_uncalculated(path, sheet)
         first = book.load_sheet(sheet, header_row=None, n_rows=1, dtypes="string").to_polars()
         fields = ["" if v is None else str(v) for v in first.row(0)] if first.height else []
         where = f"{path}: sheet {sheet!r} row 1"
@@ -62,6 +74,16 @@ def read_xlsx_table(path: Path, options: XlsxOptions) -> Table:
     return Table(frame, names, places)
 
 
+def _refuse_uncalculated(path: Path, sheet: str) -> None:
+    """A :class:`UserError` naming the first formula cell without a calculated value."""
+    cell = uncalculated_formula(path, sheet)
+    if cell is not None:
+        raise UserError(f"{path}: sheet {sheet!r} cell {cell} is a formula whose value was "
+                        "never calculated (the workbook was written by a program that left "
+                        "it to a spreadsheet); expected stored values: open and save the "
+                        "workbook in a spreadsheet program, or export the sheet as CSV")
+
+
 def _sheet(sheets: list[str], wanted: str | int | None, path: Path) -> str:
     """The sheet's name: ``wanted`` by name or 0-based position, default the first."""
     listing = ", ".join(repr(s) for s in sheets)
@@ -75,6 +97,58 @@ def _sheet(sheets: list[str], wanted: str | int | None, path: Path) -> str:
         if int(wanted) < len(sheets):
             return sheets[int(wanted)]
     raise UserError(f"{path}: no sheet {wanted!r}; the sheets are {listing}")
+
+
+#: A formula element in a sheet's XML, namespace prefix or not: ``<f>``, ``<f t=...>``,
+#: ``<x:f/>``. Searched in the raw bytes first (C speed): most sheets have none.
+_FORMULA = re.compile(rb"<(?:[A-Za-z_][\w.-]*:)?f[\s>/]")
+_MAIN = "{http://schemas.openxmlformats.org/spreadsheetml/2006/main}"
+_REL = "{http://schemas.openxmlformats.org/officeDocument/2006/relationships}"
+_PKG_REL = "{http://schemas.openxmlformats.org/package/2006/relationships}"
+
+
+def uncalculated_formula(path: Path, sheet: str) -> str | None:
+    """The first cell of ``sheet`` (its reference, e.g. ``"C2"``) whose formula has no
+    calculated value: no stored value (``<f>`` without ``<v>``), or any formula when the
+    workbook asks to be recalculated on opening (``<calcPr fullCalcOnLoad="1">``: its
+    stored values are the writing library's placeholders; ECMA-376 Part 1, sec. 18.2.2
+    and 18.3.1.4). None when every formula has a value a spreadsheet calculated, or the
+    sheet has none. An unreadable package is left to the reader, which says so."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            book = z.read("xl/workbook.xml")
+            part = _sheet_part(z, book, sheet)
+            xml = z.read(part) if part else b""
+    except (OSError, KeyError, zipfile.BadZipFile, ElementTree.ParseError):
+        return None
+    if not _FORMULA.search(xml):
+        return None
+    calc = ElementTree.fromstring(book).find(f"{_MAIN}calcPr")
+    recalc = calc is not None and calc.get("fullCalcOnLoad") in ("1", "true")
+    try:
+        for _, el in ElementTree.iterparse(io.BytesIO(xml), events=("end",)):
+            if el.tag == f"{_MAIN}c":
+                if el.find(f"{_MAIN}f") is not None and (
+                        recalc or el.find(f"{_MAIN}v") is None):
+                    return el.get("r") or "?"
+                el.clear()
+    except ElementTree.ParseError:
+        return None
+    return None
+
+
+def _sheet_part(z: zipfile.ZipFile, book: bytes, sheet: str) -> str | None:
+    """The package part (``xl/worksheets/sheet1.xml``) of the sheet named ``sheet``."""
+    rid = next((s.get(f"{_REL}id") for s in ElementTree.fromstring(book).iter(f"{_MAIN}sheet")
+                if s.get("name") == sheet), None)
+    rels = ElementTree.fromstring(z.read("xl/_rels/workbook.xml.rels"))
+    target = next((r.get("Target") for r in rels.iter(f"{_PKG_REL}Relationship")
+                   if r.get("Id") == rid), None)
+    if not target:
+        return None
+    if target.startswith("/"):
+        return target.lstrip("/")
+    return str(PurePosixPath("xl") / target)
 
 
 FORMAT = Format("xlsx", (".xlsx",), XlsxOptions, load_xlsx)
