@@ -155,13 +155,16 @@ def _inspect_scan(f: BinaryIO, path: Path, problem: str | None) -> tuple[list[di
     firsts: dict[str, tuple[Schema | None, Channel, bytes]] = {}
     notes = [problem] if problem else []
 
+    damaged: list[str] = []
+
     def scan() -> None:
-        for schema, channel, message in scan_messages(f, None, channels):
+        for schema, channel, message in scan_messages(f, None, channels, damaged):
             entry = _merge(entries, channel, schema, 1, (message.log_time, message.log_time))
             if entry["count"] == 1:
                 firsts[channel.topic] = (schema, channel, message.data)
 
-    damage = guarded(scan)
+    cut = guarded(scan)
+    damage = "; ".join(damaged[:3] + ([cut] if cut else []))
     if damage:
         notes.append(f"part of the file is damaged or cut off ({damage}); the "
                      "counts cover its readable part")

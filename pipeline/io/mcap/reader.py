@@ -8,9 +8,10 @@ Reading
     memory follows the selected signals, not the file size. ``std_msgs`` scalars
     (``Float64`` ...) are unpacked from the CDR bytes; everything else goes through the
     library decoders. A file without a summary or chunk index (a log cut off by a crash)
-    is read by a sequential scan with mcap's ``StreamReader``, with a note; a file that
-    ends in the middle of a record keeps the complete part before it, and a damaged chunk
-    is skipped, with a note (and the gap it leaves is reported as a gap).
+    is read by a sequential scan with mcap's ``StreamReader``, with a note, each chunk's
+    CRC checked there too; a file that ends in the middle of a record keeps the complete
+    part before it, and a damaged chunk is skipped, with a note (and the gap it leaves is
+    reported as a gap).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile, McapError
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Chunk, ChunkIndex, Message, Schema
-from mcap.stream_reader import StreamReader, get_chunk_data_stream
+from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 from mcap.summary import Summary
 
 from ...errors import UserError
@@ -70,12 +71,15 @@ def indexed_summary(reader: SeekingReader) -> tuple[Summary | None, str | None]:
     return summary, None
 
 
-def scan_messages(f: BinaryIO, topics: set[str] | None,
-          channels: dict[int, Channel]) -> Iterator[tuple[Schema | None, Channel, Message]]:
-    """Sequential scan with mcap's StreamReader; ``channels`` collects what it sees."""
+def scan_messages(f: BinaryIO, topics: set[str] | None, channels: dict[int, Channel],
+                  damaged: list[str] | None = None
+                  ) -> Iterator[tuple[Schema | None, Channel, Message]]:
+    """Sequential scan with mcap's StreamReader; ``channels`` collects what it sees. Each
+    chunk is decompressed and its CRC checked on its own (:func:`_scanned_records`): a
+    chunk that fails is skipped and described in ``damaged``, the scan goes on."""
     f.seek(0)
     schemas: dict[int, Schema] = {}
-    for record in StreamReader(f).records:
+    for record in _scanned_records(f, [] if damaged is None else damaged):
         if isinstance(record, Message):
             channel = channels.get(record.channel_id)
             if channel is not None and (topics is None or channel.topic in topics):
@@ -84,6 +88,27 @@ def scan_messages(f: BinaryIO, topics: set[str] | None,
             channels[record.id] = record
         elif isinstance(record, Schema):
             schemas[record.id] = record
+
+
+def _scanned_records(f: BinaryIO, damaged: list[str]) -> Iterator[object]:
+    """The records of a file read front to back, each chunk's inner records after its CRC
+    check (mcap's reader checks none on a scan unless asked, and then stops at the first
+    bad chunk): a bit flipped in a chunk of a log cut off by a crash would otherwise be
+    read as data (36.0 became 2e-307). A chunk whose CRC does not match, or whose records
+    do not parse, is skipped and described in ``damaged``; a file cut off in a record
+    ends the scan (the reader raises, and :func:`guarded` keeps what was read)."""
+    n = 0
+    for record in StreamReader(f, emit_chunks=True).records:
+        if not isinstance(record, Chunk):
+            yield record
+            continue
+        n += 1
+        try:
+            inner = breakup_chunk(record, validate_crc=True)
+        except Exception as exc:  # whatever a damaged chunk makes the reader raise
+            damaged.append(f"chunk {n} from the start: {_damage_text(exc)}")
+            continue
+        yield from inner
 
 
 _RECORD = struct.Struct("<BQ")  # MCAP record framing: opcode, length
@@ -143,10 +168,11 @@ def _read_indexed(f: BinaryIO, summary: Summary, ctx: Context,
 
 
 def _read_scan(f: BinaryIO, ctx: Context, by_topic: dict[str, list[Series]],
-               channels: dict[int, Channel]) -> None:
-    """Read a file without a chunk index by one sequential scan."""
+               channels: dict[int, Channel], damaged: list[str]) -> None:
+    """Read a file without a chunk index by one sequential scan (damaged chunks skipped,
+    described in ``damaged``)."""
     handlers: dict[int, Handler] = {}
-    for schema, channel, message in scan_messages(f, set(by_topic), channels):
+    for schema, channel, message in scan_messages(f, set(by_topic), channels, damaged):
         handler = handlers.get(channel.id)
         if handler is None:
             handler = make_handler(ctx, schema, channel, by_topic[channel.topic])
@@ -187,9 +213,12 @@ def read_series(path: Path, signals: list[tuple[str, Signal]], stamp: str | None
             check_topics(ctx, series, channels, summary)
             damage = _read_indexed(f, summary, ctx, by_topic)
             return series, channels, [], damage
-        channels = {}
-        damage = guarded(lambda: _read_scan(f, ctx, by_topic, channels))
-    return series, channels, [problem or ""], damage
+        channels: dict[int, Channel] = {}
+        damaged: list[str] = []
+        cut = guarded(lambda: _read_scan(f, ctx, by_topic, channels, damaged))
+    parts = damaged[:3] + ([f"and {len(damaged) - 3} more damaged chunks"]
+                           if len(damaged) > 3 else []) + ([cut] if cut else [])
+    return series, channels, [problem or ""], "; ".join(parts) or None
 
 
 def _stamp_path(stamp: str | None, path: Path) -> FieldPath | None:
