@@ -269,6 +269,47 @@ def test_header_stamp_time_base(tmp_path):
     assert any("resampled" in n for n in by_log_time.notes)
 
 
+def _stamped_events(rec, latency_ms: tuple[int, int], reset_at: float | None = None,
+                    seed: int = 12) -> list[Event]:
+    """Messages stamped at their sample times, logged ``latency_ms`` later; from
+    ``reset_at`` on, the stamp clock restarts 30 s earlier (a second recording)."""
+    rng = np.random.default_rng(seed)
+    events: list[Event] = []
+    for t, u, y in zip(rec.t, rec.u, rec.y, strict=True):
+        s = log_ns(t)
+        st = s - 30 * 10**9 if reset_at is not None and t >= reset_at else s
+        lat_u, lat_y = rng.integers(latency_ms[0] * 10**6, latency_ms[1] * 10**6, 2)
+        events += [(s + int(lat_u), "/u", {"header": stamp(st), "data": u}),
+                   (s + int(lat_y), "/y", {"header": stamp(st), "data": y})]
+    return events
+
+
+def test_stamps_that_jump_back_are_refused_not_interleaved(tmp_path):
+    """The stamp clock restarts 30 s back halfway (two recordings in one file): sorting
+    would interleave them into one record (issue 31). Refused, naming the signal, the
+    jump and the message; with the log time the same file loads."""
+    rec = truth()
+    path = write_json(tmp_path / "two.mcap", _stamped_events(rec, (1, 20), reset_at=35.0))
+    with pytest.raises(UserError) as exc:
+        load_mcap(path, Signal("/u", "data"), Signal("/y", "data"), stamp="header.stamp")
+    msg = exc.value.message
+    assert "input /u:data: its header stamps jump back by 29.9 s at message 351 of 701" in msg
+    assert "omit stamp" in msg and "\n" not in msg
+    assert load_mcap(path, Signal("/u", "data"), Signal("/y", "data")).n_samples > 600
+
+
+def test_stamps_a_little_out_of_order_are_sorted_with_a_note(tmp_path):
+    """Latencies of 1-250 ms on a 0.1 s grid: messages arrive behind a later stamp by up
+    to a quarter of a second; sorted, with a note, the record as logged."""
+    rec = truth()
+    path = write_json(tmp_path / "late.mcap", _stamped_events(rec, (1, 250)))
+    got = load_mcap(path, Signal("/u", "data"), Signal("/y", "data"), stamp="header.stamp")
+    np.testing.assert_array_equal(got.y, rec.y)
+    np.testing.assert_allclose(got.t, rec.t, rtol=0, atol=1e-12)
+    late = [n for n in got.notes if "arrived behind a later header stamp" in n]
+    assert len(late) == 2 and all("sorted by time" in n for n in late), got.notes
+
+
 def test_stamp_fallback_and_float_seconds(tmp_path):
     rec = truth()
     events = [(log_ns(t) + 5_000_000, "/u", {"data": u})

@@ -75,8 +75,16 @@ class _Samples:
     v: np.ndarray
 
 
-def _samples(series: Series, notes: list[str]) -> _Samples:
-    """Sort by time, drop non-finite values and repeated stamps (keep the last), with notes."""
+#: Messages may arrive a little out of time order (two publishers, a transport's
+#: latency) and are sorted, with a note. A step back by more than this many median
+#: intervals is a clock that was reset or two recordings in one file: sorting would
+#: interleave them into one record, so it is refused.
+JUMP_BACK_INTERVALS = 10.0
+
+
+def _samples(series: Series, notes: list[str], path: Path) -> _Samples:
+    """Sort by time, drop non-finite values and repeated stamps (keep the last), with
+    notes; a jump back in time (:data:`JUMP_BACK_INTERVALS`) is a UserError."""
     t = np.frombuffer(series.times, dtype=np.int64)
     v = np.frombuffer(series.values, dtype=np.float64)
     bad = ~np.isfinite(v)
@@ -84,6 +92,7 @@ def _samples(series: Series, notes: list[str]) -> _Samples:
         notes.append(f"{series.label}: {int(bad.sum())} non-finite values skipped")
         t, v = t[~bad], v[~bad]
     if t.size > 1 and bool((t[1:] < t[:-1]).any()):
+        _check_order(series, t, notes, path)
         order = np.argsort(t, kind="stable")
         t, v = t[order], v[order]
     if t.size > 1:
@@ -94,6 +103,27 @@ def _samples(series: Series, notes: list[str]) -> _Samples:
                          "stamp of the next one; the last of each is kept")
             t, v = t[keep], v[keep]
     return _Samples(series, t, v)
+
+
+def _check_order(series: Series, t: np.ndarray, notes: list[str], path: Path
+                 ) -> None:
+    """Messages behind the latest time before them: by a little, a note (they are
+    sorted); by more than :data:`JUMP_BACK_INTERVALS` median intervals, a UserError."""
+    behind = np.maximum.accumulate(t) - t
+    d = np.diff(t)
+    step = float(np.median(d[d > 0])) if bool((d > 0).any()) else 0.0
+    worst = int(np.argmax(behind))
+    what = "header stamps" if series.stamped else "log times"
+    if behind[worst] > JUMP_BACK_INTERVALS * step:
+        hint = "; or omit stamp to use the log time" if series.stamped else ""
+        raise UserError(
+            f"{path}: {series.label}: its {what} jump back by "
+            f"{behind[worst] / NS:.3g} s at message {worst + 1} of {t.size} (a clock reset, "
+            f"or two recordings in one file?); expected time that goes forward: split the "
+            f"log at that message{hint}")
+    late = int((behind > 0).sum())
+    notes.append(f"{series.label}: {late} messages arrived behind a later {what[:-1]} "
+                 f"(by at most {behind[worst] / NS * 1e3:.3g} ms); sorted by time")
 
 
 def _stamp_notes(series: list[Series], stamp: str | None, path: str) -> list[str]:
@@ -156,7 +186,7 @@ def _extract(path: Path, input: Signal, output: Signal, stamp: str | None,
     series, channels, notes, damage = read_series(
         path, [("input", input), ("output", output)], stamp)
     notes += _check_read(path, series, channels, damage, stamp)
-    inp, out = (_samples(s, notes) for s in series)
+    inp, out = (_samples(s, notes, path) for s in series)
     for s in (inp, out):
         if s.t.size == 0:
             raise UserError(f"{path}: topic '{s.series.signal.topic}' field "
