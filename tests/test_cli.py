@@ -427,3 +427,21 @@ def test_a_closed_stdout_exits_141_quietly(tmp_path, args):
         os.close(write_end)
     assert r.returncode == 141, r.stderr
     assert r.stderr == "", r.stderr
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+@pytest.mark.parametrize("args", [
+    ["methods", "--json"], ["schema"],
+    ["identify", "LOG", "--input", "u", "--output", "y", "--time", "time",
+     "--method", "first_order", "--json"],
+])
+def test_a_full_stdout_is_one_line_and_exit_2(tmp_path, args):
+    """``--json > /dev/full``: every write fails with ENOSPC. One line on stderr naming
+    standard output, exit code 2, no traceback or 'Exception ignored' (issue 31)."""
+    args = [str(_csv(tmp_path)) if a == "LOG" else a for a in args]
+    with open("/dev/full", "w") as full:
+        r = subprocess.run([sys.executable, "-m", "pipeline", *args], stdout=full,
+                           stderr=subprocess.PIPE, text=True, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr == ("error: cannot write standard output: No space left on device; "
+                        "expected room on its device\n"), r.stderr
