@@ -5,6 +5,7 @@ half-written file) that fail as one :class:`~pipeline.errors.UserError` line."""
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -12,14 +13,35 @@ from .errors import UserError
 
 
 def read_text(path: str | os.PathLike, what: str) -> str:
-    """The text of ``path``; a missing or unreadable file names ``what`` it should be."""
+    """The text of ``path``; a missing or unreadable file names ``what`` it should be. Only
+    a regular file is read: a device (``/dev/zero`` would fill the memory) or a FIFO
+    (whose reader waits for a writer that may never come) is refused before it is
+    opened."""
     p = Path(path)
     try:
+        refuse_special(p, f"expected the {what}")
         return p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise UserError(f"{p}: {what} not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{p}: cannot read the {what} ({exc})") from None
+
+
+def refuse_special(path: Path, expected: str) -> None:
+    """A :class:`UserError` when ``path`` exists and is not a regular file or a folder: a
+    device (``/dev/zero`` read to the end fills the memory), a FIFO (opening it waits for
+    a writer, or a reader, that may never come), a socket. Checked with ``stat``, which
+    does not open it (issue 31: ``--baseline /dev/zero``, a ``--history`` FIFO)."""
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return  # missing or unreachable: the caller's own error says so
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return
+    kind = "a pipe" if stat.S_ISFIFO(mode) else "a device" if (
+        stat.S_ISCHR(mode) or stat.S_ISBLK(mode)) else "a socket" if stat.S_ISSOCK(mode) \
+        else "a special file"
+    raise UserError(f"{path}: {kind}, not a regular file; {expected}")
 
 
 def _umask() -> int:
@@ -52,6 +74,7 @@ def check_writable(path: str | os.PathLike, what: str, *, folder: bool = False) 
     p = Path(path)
     if p.is_dir() and not folder:
         raise UserError(f"{p}: cannot write the {what} (is a folder); expected a file")
+    refuse_special(p, f"cannot write the {what} there")
     if p.exists() and folder and not p.is_dir():
         raise UserError(f"{p}: cannot write the {what} (is a file); expected a folder")
     if p.is_dir():

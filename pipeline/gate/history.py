@@ -33,7 +33,7 @@ from pathlib import Path
 import polars as pl
 
 from ..errors import UserError
-from ..files import through_link, write_atomic
+from ..files import refuse_special, through_link, write_atomic
 from ..models import PARAMETERS
 from ..schema import MetricsDoc, ResultsDoc
 
@@ -155,6 +155,7 @@ def load_history(path: str | os.PathLike) -> pl.DataFrame:
     p = Path(path)
     if not p.exists():
         raise UserError(f"{p}: history file not found")
+    refuse_special(p, "expected a parquet history file")
     try:
         frame = pl.read_parquet(p)
     except (OSError, pl.exceptions.PolarsError) as exc:
