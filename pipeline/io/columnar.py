@@ -16,6 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import polars as pl
+import polars.selectors as cs
 
 from ..errors import UserError
 from ..record import Record
@@ -56,6 +57,9 @@ def read_columnar_table(path: Path, data: DataSection | None = None,
                         ) from None
     if frame.height == 0:
         raise UserError(f"{path}: no rows; expected a table of samples")
+    # dictionary-encoded text (Categorical, Enum) is read as the text it holds: numbers
+    # stored that way are numbers, as in a CSV (polars cannot cast them to floats)
+    frame = frame.with_columns(cs.categorical().cast(pl.String), cs.enum().cast(pl.String))
     frame = frame.rename({c: str(i) for i, c in enumerate(frame.columns)})
     return Table(frame, names, Places(path, range(1, frame.height + 1), word="row"),
                  positions=tuple(wanted) if wanted else None)

@@ -63,6 +63,11 @@ def read_xlsx_table(path: Path, options: XlsxOptions) -> Table:
     except fastexcel.FastExcelError as exc:
         raise UserError(f"{path}: not a readable workbook ({one_line(exc)}); expected an "
                         ".xlsx file") from None
+    except pl.exceptions.NoDataError:
+        others = [s for s in book.sheet_names if s != sheet]
+        raise UserError(f"{path}: sheet {sheet!r} is empty; expected a table"
+                        + (f" (the other sheets: {', '.join(map(repr, others))}; choose one "
+                           "with data.sheet or --sheet)" if others else "")) from None
     if frame.height == 0:
         raise UserError(f"{path}: sheet {sheet!r} has no data rows; expected a table")
     names = column_names((fields + [""] * frame.width)[:frame.width] if header else None,

@@ -1,4 +1,5 @@
-"""Corpus rows for workbooks whose formulas were never calculated (issue 31).
+"""Corpus rows for workbooks and columnar files as users have them (issue 31): formulas
+never calculated, an empty first sheet, numbers stored as dictionary-encoded text.
 
 A library such as xlsxwriter stores 0 beside each formula and asks the spreadsheet to
 recalculate on opening; read as numbers, the output became a column of zeros with status
@@ -90,4 +91,46 @@ CASES = [
             keep=("log.xlsx",), check=_gain),
     Hostile("xlsx_plain_values", IDENTIFY, 0,
             files={"log.xlsx": _workbook(formulas=False)}, keep=("log.xlsx",), check=_gain),
+]
+
+
+def _empty_first_sheet() -> bytes:
+    """A workbook whose first sheet is empty and whose second holds the step log."""
+    import xlsxwriter
+
+    out = io.BytesIO()
+    with xlsxwriter.Workbook(out, {"in_memory": True}) as book:
+        book.add_worksheet("notes")
+        sheet = book.add_worksheet("log")
+        sheet.write_row(0, 0, ["time", "u", "y"])
+        for i, row in enumerate(_rows(), start=1):
+            sheet.write_row(i, 0, row)
+    return out.getvalue()
+
+
+def _dictionary_parquet() -> bytes:
+    """The step log as Parquet, u and y dictionary-encoded text (Categorical, Enum)."""
+    import polars as pl
+
+    t, u, y = zip(*_rows(), strict=True)
+    frame = pl.DataFrame({"time": t, "u": [f"{v:g}" for v in u], "y": [repr(v) for v in y]})
+    frame = frame.with_columns(pl.col("u").cast(pl.Categorical),
+                               pl.col("y").cast(pl.Enum(sorted(set(frame["y"])))))
+    out = io.BytesIO()
+    frame.write_parquet(out)
+    return out.getvalue()
+
+
+CASES += [
+    Hostile("xlsx_empty_first_sheet", IDENTIFY, 2,
+            files={"log.xlsx": _empty_first_sheet()},
+            stderr=("log.xlsx: sheet 'notes' is empty; expected a table (the other sheets: "
+                    "'log'; choose one with data.sheet or --sheet)",), keep=("log.xlsx",),
+            max_lines=1),
+    Hostile("xlsx_empty_first_sheet_chosen", (*IDENTIFY, "--sheet", "log"), 0,
+            files={"log.xlsx": _empty_first_sheet()}, keep=("log.xlsx",), check=_gain),
+    Hostile("parquet_dictionary_encoded_numbers",
+            ("identify", "log.parquet", "--input", "u", "--output", "y", "--time", "time",
+             "--method", "first_order", "--out", "out"), 0,
+            files={"log.parquet": _dictionary_parquet()}, keep=("log.parquet",), check=_gain),
 ]
