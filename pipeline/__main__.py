@@ -13,8 +13,15 @@ def main() -> None:
     large_arrays_mapped()
     one_native_thread()
     from .cli import app
+    from .cli.output import StdoutError, guard_stdout, report_stdout_failure
+    from .errors import ExitCode
 
-    app(prog_name="pipeline")
+    guard_stdout()
+    try:
+        app(prog_name="pipeline")
+    except StdoutError as exc:  # --version, --help: written before any command's handler
+        report_stdout_failure(exc)
+        raise SystemExit(ExitCode.USER_ERROR) from None
 
 
 if __name__ == "__main__":

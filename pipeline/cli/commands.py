@@ -7,7 +7,6 @@ line on stderr and :attr:`ExitCode.USER_ERROR`; the exit codes are
 
 from __future__ import annotations
 
-import errno
 import functools
 import sys
 from pathlib import Path
@@ -24,12 +23,14 @@ from .data import with_data_options
 from .help_types import example  # also --help's value words, not <bool>
 from .output import (
     JsonOption,
+    StdoutError,
     err,
     error_line,
     keep_whole,
     out,
     print_json,
     print_ranking,
+    report_stdout_failure,
     show,
     stdout_to_devnull,
 )
@@ -42,15 +43,11 @@ app.add_typer(datasets_app, name="datasets")
 app.add_typer(baseline_app, name="baseline")
 
 
-#: A write that fails for want of room or a device error: not a bug of ours, one line.
-FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
-
-
 def handled(command):
     """The one error handler: a user error is one stderr line and exit code 2; a closed
     stdout (``| head -1``) ends the command quietly with :attr:`ExitCode.BROKEN_PIPE`
-    (click's own handler would exit 1, the regression code); a full device (``--json >
-    /dev/full``) is one line naming what could not be written, exit code 2."""
+    (click's own handler would exit 1, the regression code); a full stdout (``--json >
+    /dev/full``) is one line, exit code 2 (:class:`~.output.StdoutError`)."""
 
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
@@ -62,12 +59,8 @@ def handled(command):
         except BrokenPipeError:
             stdout_to_devnull()
             raise typer.Exit(ExitCode.BROKEN_PIPE) from None
-        except OSError as exc:
-            if exc.errno not in FULL_ERRNOS:
-                raise
-            stdout_to_devnull()  # the exit's flush of what is left would fail again
-            where = exc.filename or "standard output"
-            error_line(f"cannot write {where}: {exc.strerror}; expected room on its device")
+        except StdoutError as exc:
+            report_stdout_failure(exc)
             raise typer.Exit(ExitCode.USER_ERROR) from None
 
     return wrapper

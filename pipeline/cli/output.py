@@ -28,6 +28,53 @@ class _Console(Console):
 out = _Console(highlight=False, soft_wrap=True)
 err = _Console(stderr=True, highlight=False, soft_wrap=True)
 
+
+class StdoutError(OSError):
+    """Standard output could not take what was written (a full device, ``> /dev/full``; a
+    quota; an I/O error), told apart from a failing file of the run by the stream that
+    raised it (:func:`guard_stdout`)."""
+
+
+class _GuardedStdout:
+    """``sys.stdout`` whose write errors are :class:`StdoutError` (a closed pipe stays a
+    :class:`BrokenPipeError`); everything else is the stream's own."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def write(self, text):
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise StdoutError(exc.errno, exc.strerror) from None
+
+    def flush(self):
+        try:
+            return self._stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise StdoutError(exc.errno, exc.strerror) from None
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def guard_stdout() -> None:
+    """Wrap ``sys.stdout`` (the ``pipeline`` command does, first thing) so a failed write
+    to it is a :class:`StdoutError`."""
+    if sys.stdout is not None and not isinstance(sys.stdout, _GuardedStdout):
+        sys.stdout = _GuardedStdout(sys.stdout)
+
+
+def report_stdout_failure(exc: OSError) -> None:
+    """The one line for a :class:`StdoutError`; stdout then points at /dev/null so that
+    the exit's flush of what is left does not fail again."""
+    stdout_to_devnull()
+    error_line(f"cannot write standard output: {exc.strerror}")
+
 #: Off a terminal a table is as wide as its content, up to this many columns: complete
 #: lines that a pipe, grep or a CI log keeps whole (a CI log's 80 columns cut flag codes,
 #: field paths and URLs in the middle).

@@ -13,8 +13,9 @@ What matters for the model's use is the response:
   refinement's simulation of the events it did not see (what a held-out misfit is judged
   against beside the noise).
 
-Both are relative to the response's largest magnitude over the window; grading's
-``wide_ci`` compares them with :data:`pipeline.grading.verdicts.MATERIAL`.
+The first two are relative to the response's largest magnitude over the window; grading's
+``wide_ci`` compares them with :data:`pipeline.grading.verdicts.MATERIAL`. The third is in
+the output's units.
 """
 
 from __future__ import annotations

@@ -5,7 +5,10 @@ error is beyond :data:`MISFIT_RATIO` times what the data and the model allow: th
 held-out events' noise, the fit's own error on its identification data
 (:func:`own_rms`), the best refinement's on the same data (:func:`fit_floor`), and what
 the model's own parameter uncertainty moves its held-out simulation by
-(:func:`pipeline.grading.determinacy.heldout_spread`). :mod:`.verdicts` runs it with the
+(:func:`pipeline.grading.determinacy.heldout_spread`), the two added as variances of
+independent errors (the prediction error's variance is the noise's plus the estimate's,
+``sigma^2 + diag(J C J^T)``: Ljung, System Identification, 2nd ed., sec. 9.3, the
+parameter error independent of the new data's noise). :mod:`.verdicts` runs it with the
 other checks.
 """
 
@@ -16,6 +19,7 @@ import math
 import numpy as np
 
 from ..fit import Fit, Flag
+from ..refine import held_out_events
 from ..results import RecordResult
 from .determinacy import heldout_spread
 
@@ -58,11 +62,16 @@ def validation_misfit(fit: Fit, result: RecordResult, floor: float) -> Flag | No
     rec = result.record
     if result.validation_events:
         mse = fit.metrics.get("mse_validation", math.nan)
-        held_out = list(result.validation_events)
+        held_out = scored = list(result.validation_events)
     else:
         mse = fit.metrics.get("mse_cross_validation", math.nan)
         own = set(fit.events or (fit.event,))
         held_out = [i for i in result.identification_events if i not in own]
+        # the events its cross-validated error was scored on: a one-event model's, at
+        # most MAX_FOLDS of the others (held_out_events); a joint model's folds each
+        # hold out one of its own events
+        scored = list(fit.events) if fit.events else held_out_events(
+            result.identification_events, fit.event)
     held = [result.events[i] for i in held_out]
     noise = float(np.mean([e.noise for e in held])) if held else 0.0
     ref = max(noise, own_rms(fit) if math.isfinite(own_rms(fit)) else 0.0,
@@ -76,7 +85,7 @@ def validation_misfit(fit: Fit, result: RecordResult, floor: float) -> Flag | No
     # right within its intervals may miss a long validation run (an integrator's gain).
     # Cross-validated, the model of all its events stands for its folds' (theirs, from
     # fewer events, are no more certain: the allowance is not larger than it should be)
-    spread = heldout_spread(fit, rec, result.events, held_out)
+    spread = heldout_spread(fit, rec, result.events, scored)
     if spread is not None and not math.isfinite(spread):
         spread = None  # no finite covariance: no allowance (and no inf in results.json)
     if spread:
@@ -85,9 +94,10 @@ def validation_misfit(fit: Fit, result: RecordResult, floor: float) -> Flag | No
         if ratio <= MISFIT_RATIO:
             return None
     unit = f" {rec.units['output']}" if rec.units.get("output") else ""
+    allow = "its own event and its parameters' uncertainty allow" if spread else \
+        "its own event leaves"
     return Flag("validation_misfit", f"On the events it did not see the model misses the "
-                f"data by {ratio:.1f} times what its own event and its parameters' "
-                f"uncertainty allow (RMS {math.sqrt(mse):.3g}{unit} against "
+                f"data by {ratio:.1f} times what {allow} (RMS {math.sqrt(mse):.3g}{unit} against "
                 f"{ref:.3g}): the plant does not behave the same way over the whole log (a "
                 "gain or dynamics that change with the operating point, or a drift); trust it "
                 "near the conditions it was identified at.",

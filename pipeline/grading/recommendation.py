@@ -313,11 +313,13 @@ def recommend(result, *, level: float = LEVEL, aic_margin: float = AIC_MARGIN
         return _recommendation(chosen.fit, best.fit, name, chosen.error, best.error,
                                len(cands), margin)
     diff, se = paired_difference(loaded(chosen, result), loaded(lowest, result), noise)
-    why = (f"within the uncertainty (difference {diff:.3g} +- {se:.2g})"
-           if _rank(lowest.fit) <= _rank(chosen.fit) else
-           f"but its verdict is {lowest.fit.verdict} ("
-           + ", ".join(f.code for f in lowest.fit.flags if f.severity != "info") + ")")
-    kind = lowest.fit.model.structure.replace('_', ' ')
+    kind = lowest.fit.model.structure
+    own = [c.fit for c in cands if c.fit.is_refined and c.fit.model.structure == kind]
+    graded_worse = bool(own) and _rank(lowest.fit) > min(_rank(f) for f in own)
+    why = (f"but its verdict is {lowest.fit.verdict} (" + ", ".join(dict.fromkeys(
+        f.code for f in lowest.fit.flags if f.severity != "info")) + ")" if graded_worse
+        else f"within the uncertainty (difference {diff:.3g} +- {se:.2g})")
+    kind = kind.replace("_", " ")
     reason = (f"{name} {chosen.error:.4g} ({_where(chosen.fit)}); {lowest.fit.method}, a "
               f"reading of {'an' if kind[0] in 'aeiou' else 'a'} {kind} model, scored "
               f"{lowest.error:.4g}, {why}, and its structure is represented by its "
@@ -354,7 +356,8 @@ def _representative(group: list[Candidate], noise: float, level: float, result
     if not lsq:
         return graph[0]
     rep = min(lsq, key=lambda c: c.error)
-    if graph and graph[0].error < rep.error and _rank(graph[0].fit) <= _rank(rep.fit):
+    graph = [c for c in graph if _rank(c.fit) <= _rank(rep.fit)]
+    if graph and graph[0].error < rep.error:
         diff, se = paired_difference(loaded(rep, result), loaded(graph[0], result), noise)
         if diff > float(stats.norm.ppf(1 - level / (2 * len(graph)))) * se:
             return graph[0]
