@@ -1,6 +1,7 @@
 """Dataset downloads through pooch (issue 29): a local HTTP server stands in for the
-official source. Plain and gzip files, the sha256 of the stored file, a retry after a
-server error, and nothing left in the cache when a download is refused."""
+official source. Plain and gzip files, the sha256 of the stored file, retries after a
+server error and after a bad hash, and nothing left in the cache when a download is
+refused."""
 
 from __future__ import annotations
 
@@ -81,6 +82,7 @@ def test_download_checks_the_stored_file_and_fills_the_cache(tmp_path, monkeypat
 
 
 def test_a_server_error_is_retried(tmp_path, monkeypatch, server):
+    monkeypatch.setattr(datasets, "RETRY_WAIT", 0.0)
     _Handler.files["/plate.dat"] = DATA
     _Handler.failures["/plate.dat"] = 1
     _registry(tmp_path, monkeypatch, server + "/plate.dat", gz=False)
@@ -104,4 +106,24 @@ def test_a_missing_file_says_where_it_looked(tmp_path, monkeypatch, server):
     _registry(tmp_path, monkeypatch, server + "/gone.dat", gz=False)
     monkeypatch.setattr(datasets, "RETRIES", 0)
     with pytest.raises(UserError, match="404"):
+        datasets.fetch("plate")
+
+
+@pytest.mark.parametrize("gz", [False, True])
+def test_a_bad_hash_is_tried_again_then_refused(tmp_path, monkeypatch, server, gz):
+    """The hash of the stored file is checked after decompression too: a gzip entry whose
+    file does not match is fetched RETRIES + 1 times, as a plain one is."""
+    monkeypatch.setattr(datasets, "RETRY_WAIT", 0.0)
+    name = "/plate.dat" + (".gz" if gz else "")
+    _Handler.files[name] = gzip.compress(DATA) if gz else DATA
+    _registry(tmp_path, monkeypatch, server + name, gz=gz, sha="0" * 64)
+    with pytest.raises(UserError):
+        datasets.fetch("plate")
+    assert _Handler.hits[name] == datasets.RETRIES + 1
+
+
+def test_an_unknown_scheme_is_one_line(tmp_path, monkeypatch):
+    monkeypatch.setattr(datasets, "RETRY_WAIT", 0.0)
+    _registry(tmp_path, monkeypatch, "gopher://example.org/plate.dat", gz=False)
+    with pytest.raises(UserError, match="unsupported URL scheme 'gopher'"):
         datasets.fetch("plate")

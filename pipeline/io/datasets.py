@@ -9,9 +9,11 @@ named by ``PIPELINE_DATASETS_MIRROR`` (``MIRROR/<mirror_path>``), then the offic
 time; the cache is written atomically. Works the same from a source checkout and from an
 installed wheel, from any folder.
 
-Downloads go through pooch (HTTP(S), FTP and SFTP; retries on a dropped connection or a
-bad hash; decompression; a progress bar on a terminal), imported only when a download is
-needed: it brings requests, which a run from the mirror or the cache never loads.
+Downloads go through pooch (HTTP(S) and FTP, each with a timeout; decompression; a
+progress bar on a terminal), tried again :data:`RETRIES` times after a dropped connection
+or a bad hash (the stored file's, after decompression, included); pooch is imported only
+when a download is needed: it brings requests, which a run from the mirror or the cache
+never loads.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import os
 import shutil
 import sys
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,8 +36,11 @@ from ..files import default_mode
 MIRROR_ENV = "PIPELINE_DATASETS_MIRROR"
 REGISTRY_ENV = "PIPELINE_DATASETS_REGISTRY"
 CACHE_ENV = "PIPELINE_DATASETS_CACHE"
-#: downloads tried again after the first fails (pooch waits 1 s, then 2 s, ... between)
+#: downloads tried again after the first fails, waiting RETRY_WAIT s, then twice that
 RETRIES = 2
+RETRY_WAIT = 1.0
+#: seconds a connection may stay silent before the attempt fails (a stalled server)
+TIMEOUT = 30.0
 
 
 @dataclass(frozen=True)
@@ -173,6 +179,19 @@ def _install(src: Path, target: Path, ds: Dataset) -> Path:
 
 
 def _download(ds: Dataset, target: Path) -> Path:
+    """:func:`_download_once`, tried again :data:`RETRIES` times when it fails (a dropped
+    connection, a timeout, a bad hash); the last failure is raised."""
+    for attempt in range(RETRIES + 1):
+        try:
+            return _download_once(ds, target)
+        except (*ftplib.all_errors, ValueError):
+            if attempt == RETRIES:
+                raise
+            time.sleep(RETRY_WAIT * (attempt + 1))
+    raise AssertionError("unreachable")
+
+
+def _download_once(ds: Dataset, target: Path) -> Path:
     """Fetch ``ds.url`` with pooch into a staging folder beside ``target``, decompress it
     when the entry says so, check the sha256 of the file as stored and move it into place
     (so a failed or interrupted download never leaves a file the cache would serve)."""
@@ -181,11 +200,13 @@ def _download(ds: Dataset, target: Path) -> Path:
     target.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=".part-"))
     remote = ds.url.rsplit("/", 1)[-1] or ds.file
+    if ds.compression and remote == ds.file:
+        remote += ".download"  # the decompressed file must not be written onto its input
     # the registry's sha256 is the stored (decompressed) file's: pooch checks it on a plain
     # download; a compressed one is checked after decompression, below
     known = None if ds.compression else f"sha256:{ds.sha256}"
     fetcher = pooch.create(path=staging, base_url="", registry={remote: known},
-                           urls={remote: ds.url}, retry_if_failed=RETRIES)
+                           urls={remote: ds.url})
     processor = (pooch.Decompress(method=ds.compression, name=ds.file)
                  if ds.compression else None)
     logger = pooch.get_logger()
@@ -193,7 +214,8 @@ def _download(ds: Dataset, target: Path) -> Path:
     logger.setLevel("WARNING")  # not pooch's "Downloading file ..." lines on every fetch
     bar = _ProgressBar(ds.name) if sys.stderr.isatty() else False
     try:
-        got = Path(fetcher.fetch(remote, processor=processor, progressbar=bar))
+        got = Path(fetcher.fetch(remote, processor=processor,
+                                 downloader=_downloader(pooch, ds.url, bar)))
         digest = sha256_of(got)
         if digest != ds.sha256:
             raise ValueError(f"sha256 mismatch: got {digest}, expected {ds.sha256}")
@@ -205,6 +227,18 @@ def _download(ds: Dataset, target: Path) -> Path:
         if bar:
             bar.close()
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def _downloader(pooch, url: str, bar):
+    """pooch's downloader for ``url``'s scheme, with :data:`TIMEOUT` (pooch's FTP one
+    has none by default: a stalled server would hang the run); another scheme is a
+    ValueError, reported as the URL that could not be fetched."""
+    scheme = url.split(":", 1)[0].lower()
+    if scheme == "ftp":
+        return pooch.FTPDownloader(timeout=TIMEOUT, progressbar=bar)
+    if scheme in ("http", "https"):
+        return pooch.HTTPDownloader(timeout=TIMEOUT, progressbar=bar)
+    raise ValueError(f"unsupported URL scheme {scheme!r}; expected http, https or ftp")
 
 
 class _ProgressBar:
