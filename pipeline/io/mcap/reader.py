@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
 from mcap.data_stream import ReadDataStream
-from mcap.exceptions import EndOfFile, McapError
+from mcap.exceptions import EndOfFile, McapError, UnsupportedCompressionError
 from mcap.reader import SeekingReader
 from mcap.records import Channel, Chunk, ChunkIndex, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
@@ -105,10 +105,29 @@ def _scanned_records(f: BinaryIO, damaged: list[str]) -> Iterator[object]:
         n += 1
         try:
             inner = breakup_chunk(record, validate_crc=True)
+        except UnsupportedCompressionError as exc:
+            raise UserError(f"{getattr(f, 'name', 'the log')}: chunk {n} is compressed "
+                            f"with {exc}, which this installation "
+                            "cannot read; expected zstd, lz4 or no compression (install "
+                            "the zstandard and lz4 packages)") from None
         except Exception as exc:  # whatever a damaged chunk makes the reader raise
             damaged.append(f"chunk {n} from the start: {_damage_text(exc)}")
+            # its schemas and channels, when they still parse, name the topics of the
+            # chunks after it; its messages are not used
+            yield from _definitions(record)
             continue
         yield from inner
+
+
+def _definitions(chunk: Chunk) -> list[object]:
+    """The Schema and Channel records of a chunk that failed its CRC, read without the
+    check (none when even they do not parse): a log writes a topic's channel once, in
+    the first chunk that has its messages, so losing it would lose the topic."""
+    try:
+        records = breakup_chunk(chunk, validate_crc=False)
+    except Exception:  # whatever the damage makes the parser raise
+        return []
+    return [r for r in records if isinstance(r, Schema | Channel)]
 
 
 _RECORD = struct.Struct("<BQ")  # MCAP record framing: opcode, length
