@@ -293,7 +293,8 @@ def test_stamps_that_jump_back_are_refused_not_interleaved(tmp_path):
     with pytest.raises(UserError) as exc:
         load_mcap(path, Signal("/u", "data"), Signal("/y", "data"), stamp="header.stamp")
     msg = exc.value.message
-    assert "input /u:data: its header stamps jump back by 29.9 s at message 351 of 701" in msg
+    assert ("input /u:data: its header stamps jump back by 29.9 s at message 351 of 701 "
+            "finite ones") in msg
     assert "omit stamp" in msg and "\n" not in msg
     assert load_mcap(path, Signal("/u", "data"), Signal("/y", "data")).n_samples > 600
 

@@ -19,7 +19,6 @@ be silent zeros.
 
 from __future__ import annotations
 
-import io
 import re
 import zipfile
 from pathlib import Path, PurePosixPath
@@ -85,8 +84,9 @@ def _refuse_uncalculated(path: Path, sheet: str) -> None:
     if cell is not None:
         raise UserError(f"{path}: sheet {sheet!r} cell {cell} is a formula whose value was "
                         "never calculated (the workbook was written by a program that left "
-                        "it to a spreadsheet); expected stored values: open and save the "
-                        "workbook in a spreadsheet program, or export the sheet as CSV")
+                        "it to a spreadsheet; formulas in any column count); expected stored "
+                        "values: open and save the workbook in a spreadsheet program, or "
+                        "export the sheet as CSV")
 
 
 def _sheet(sheets: list[str], wanted: str | int | None, path: Path) -> str:
@@ -117,29 +117,44 @@ def uncalculated_formula(path: Path, sheet: str) -> str | None:
     calculated value: no stored value (``<f>`` without ``<v>``), or any formula when the
     workbook asks to be recalculated on opening (``<calcPr fullCalcOnLoad="1">``: its
     stored values are the writing library's placeholders; ECMA-376 Part 1, sec. 18.2.2
-    and 18.3.1.4). None when every formula has a value a spreadsheet calculated, or the
-    sheet has none. An unreadable package is left to the reader, which says so."""
+    and 18.3.1.4). Any formula in the sheet counts, in a column the record uses or not.
+    None when every formula has a value a spreadsheet calculated, or the sheet has none.
+    The sheet is streamed (:data:`CHUNK` bytes at a time), never held whole; an
+    unreadable package is left to the reader, which says so."""
     try:
         with zipfile.ZipFile(path) as z:
             book = z.read("xl/workbook.xml")
             part = _sheet_part(z, book, sheet)
-            xml = z.read(part) if part else b""
+            if not part or not _has_formula(z, part):
+                return None
+            calc = ElementTree.fromstring(book).find(f"{_MAIN}calcPr")
+            recalc = calc is not None and calc.get("fullCalcOnLoad") in ("1", "true")
+            with z.open(part) as stream:
+                for _, el in ElementTree.iterparse(stream, events=("end",)):
+                    if el.tag == f"{_MAIN}c":
+                        if el.find(f"{_MAIN}f") is not None and (
+                                recalc or el.find(f"{_MAIN}v") is None):
+                            return el.get("r") or "?"
+                        el.clear()
     except (OSError, KeyError, zipfile.BadZipFile, ElementTree.ParseError):
         return None
-    if not _FORMULA.search(xml):
-        return None
-    calc = ElementTree.fromstring(book).find(f"{_MAIN}calcPr")
-    recalc = calc is not None and calc.get("fullCalcOnLoad") in ("1", "true")
-    try:
-        for _, el in ElementTree.iterparse(io.BytesIO(xml), events=("end",)):
-            if el.tag == f"{_MAIN}c":
-                if el.find(f"{_MAIN}f") is not None and (
-                        recalc or el.find(f"{_MAIN}v") is None):
-                    return el.get("r") or "?"
-                el.clear()
-    except ElementTree.ParseError:
-        return None
     return None
+
+
+#: Bytes of a sheet's XML searched at a time for a formula element.
+CHUNK = 1 << 20
+
+
+def _has_formula(z: zipfile.ZipFile, part: str) -> bool:
+    """Whether the sheet's XML holds a formula element, searched chunk by chunk (a tag cut
+    between two chunks is found in the overlap kept from the first)."""
+    tail = b""
+    with z.open(part) as stream:
+        while chunk := stream.read(CHUNK):
+            if _FORMULA.search(tail + chunk):
+                return True
+            tail = chunk[-64:]
+    return False
 
 
 def _sheet_part(z: zipfile.ZipFile, book: bytes, sheet: str) -> str | None:

@@ -77,9 +77,11 @@ class _Samples:
 
 #: Messages may arrive a little out of time order (two publishers, a transport's
 #: latency) and are sorted, with a note. A step back by more than this many median
-#: intervals is a clock that was reset or two recordings in one file: sorting would
-#: interleave them into one record, so it is refused.
+#: sample intervals, and by more than JUMP_BACK_SECONDS (a fast signal's latency), is a
+#: clock that was reset or two recordings in one file: sorting would interleave them
+#: into one record, so it is refused.
 JUMP_BACK_INTERVALS = 10.0
+JUMP_BACK_SECONDS = 1.0
 
 
 def _samples(series: Series, notes: list[str], path: Path) -> _Samples:
@@ -108,19 +110,21 @@ def _samples(series: Series, notes: list[str], path: Path) -> _Samples:
 def _check_order(series: Series, t: np.ndarray, notes: list[str], path: Path
                  ) -> None:
     """Messages behind the latest time before them: by a little, a note (they are
-    sorted); by more than :data:`JUMP_BACK_INTERVALS` median intervals, a UserError."""
+    sorted); by more than :data:`JUMP_BACK_INTERVALS` median intervals and
+    :data:`JUMP_BACK_SECONDS`, a UserError (its message counts the finite values in
+    arrival order)."""
     behind = np.maximum.accumulate(t) - t
-    d = np.diff(t)
+    d = np.diff(np.sort(t))  # the sample interval, not the arrival order's jitter
     step = float(np.median(d[d > 0])) if bool((d > 0).any()) else 0.0
     worst = int(np.argmax(behind))
     what = "header stamps" if series.stamped else "log times"
-    if behind[worst] > JUMP_BACK_INTERVALS * step:
+    if behind[worst] > max(JUMP_BACK_INTERVALS * step, JUMP_BACK_SECONDS * NS):
         hint = "; or omit stamp to use the log time" if series.stamped else ""
         raise UserError(
-            f"{path}: {series.label}: its {what} jump back by "
-            f"{behind[worst] / NS:.3g} s at message {worst + 1} of {t.size} (a clock reset, "
-            f"or two recordings in one file?); expected time that goes forward: split the "
-            f"log at that message{hint}")
+            f"{path}: {series.label}: its {what} jump back by {behind[worst] / NS:.3g} s at "
+            f"message {worst + 1} of {t.size} finite ones (a clock reset, or two recordings "
+            f"in one file?); expected time that goes forward: split the log at that "
+            f"message{hint}")
     late = int((behind > 0).sum())
     notes.append(f"{series.label}: {late} messages arrived behind a later {what[:-1]} "
                  f"(by at most {behind[worst] / NS * 1e3:.3g} ms); sorted by time")
