@@ -81,10 +81,15 @@ class ParameterCovariance:
         w, vecs = np.linalg.eigh((cov + cov.T) / 2.0)
         zs = np.asarray(self.z) + (rng.standard_normal((n, w.size)) * np.sqrt(
             np.maximum(w, 0.0))) @ vecs.T
+        return [self.at(row) for row in zs]
+
+    def at(self, z: np.ndarray) -> dict[str, float]:
+        """The parameters at search coordinates ``z`` (a log coordinate's exponential,
+        a linear one times its scale)."""
         log, scale = np.asarray(self.log), np.asarray(self.scale)
         with np.errstate(over="ignore"):
-            v = np.where(log, np.exp(np.minimum(zs, 700.0)), zs * scale)
-        return [dict(zip(self.names, map(float, row), strict=True)) for row in v]
+            v = np.where(log, np.exp(np.minimum(z, 700.0)), np.asarray(z) * scale)
+        return dict(zip(self.names, map(float, v), strict=True))
 
 
 @dataclass(frozen=True)

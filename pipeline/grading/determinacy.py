@@ -52,13 +52,10 @@ def response_band(fit: Fit, horizon: float) -> float | None:
     scale = float(np.max(np.abs(s0)))
     if scale == 0:
         return math.inf
-    bounds = model.spec.bounds
     curves = []
     with np.errstate(all="ignore"):
         for draw in cov.draws(BAND_DRAWS):
-            p = {**model.params, **{k: min(max(v, bounds.get(k, (-math.inf, math.inf))[0]),
-                                           bounds.get(k, (-math.inf, math.inf))[1])
-                                    for k, v in draw.items()}}
+            p = clamped(model, draw)
             try:
                 curves.append(ProcessModel(model.structure, p).unit_step(t))
             except (ValueError, ZeroDivisionError, FloatingPointError, OverflowError):
@@ -66,6 +63,15 @@ def response_band(fit: Fit, horizon: float) -> float | None:
         lo, hi = np.nanquantile(np.array(curves), [0.025, 0.975], axis=0)
     half = float(np.max((hi - lo) / 2.0)) / scale
     return half if math.isfinite(half) else math.inf
+
+
+def clamped(model: ProcessModel, values: dict[str, float]) -> dict[str, float]:
+    """``model``'s parameters with ``values`` put in, each clipped to the structure's
+    bounds (a draw from a covariance may leave them)."""
+    bounds = model.spec.bounds
+    return {**model.params, **{k: min(max(v, bounds.get(k, (-math.inf, math.inf))[0]),
+                                      bounds.get(k, (-math.inf, math.inf))[1])
+                               for k, v in values.items()}}
 
 
 def response_change(fit: Fit, name: str, horizon: float) -> float:
@@ -120,16 +126,10 @@ def heldout_spread(fit: Fit, record: Record, events: list[Event], heldout: list[
     if base.size == 0:
         return None
     w, vecs = np.linalg.eigh((matrix + matrix.T) / 2.0)
-    log, scale = np.asarray(cov.log), np.asarray(cov.scale)
-    bounds = model.spec.bounds
     total = np.zeros(base.size)
     with np.errstate(all="ignore"):
         for k in np.flatnonzero(w > 0):
-            z = z0 + math.sqrt(float(w[k])) * vecs[:, k]
-            v = np.where(log, np.exp(np.minimum(z, 700.0)), z * scale)
-            p = {**model.params, **{n: min(max(float(x), bounds.get(n, (-math.inf, math.inf))[0]),
-                                           bounds.get(n, (-math.inf, math.inf))[1])
-                                    for n, x in zip(cov.names, v, strict=True)}}
+            p = clamped(model, cov.at(z0 + math.sqrt(float(w[k])) * vecs[:, k]))
             try:
                 _, e = heldout_residuals(ProcessModel(model.structure, p), record, events,
                                          heldout, balance)
