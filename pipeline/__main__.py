@@ -12,8 +12,7 @@ def main() -> None:
     polars_returns_freed_pages()
     large_arrays_mapped()
     one_native_thread()
-    from .cli import app
-    from .cli.output import StdoutError, guard_stdout, report_stdout_failure
+    from .cli import StdoutError, app, guard_stdout, report_stdout_failure
     from .errors import ExitCode
 
     guard_stdout()
