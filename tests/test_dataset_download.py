@@ -123,7 +123,7 @@ def test_a_bad_hash_is_tried_again_then_refused(tmp_path, monkeypatch, server, g
 
 
 def test_an_unknown_scheme_is_one_line(tmp_path, monkeypatch):
-    monkeypatch.setattr(datasets, "RETRY_WAIT", 0.0)
     _registry(tmp_path, monkeypatch, "gopher://example.org/plate.dat", gz=False)
+    monkeypatch.setattr(datasets, "RETRY_WAIT", 60.0)  # not tried again: no wait
     with pytest.raises(UserError, match="unsupported URL scheme 'gopher'"):
         datasets.fetch("plate")

@@ -19,6 +19,7 @@ import math
 import numpy as np
 
 from ..fit import Fit, Flag
+from ..record import Record
 from ..refine import held_out_events
 from ..results import RecordResult
 from .determinacy import heldout_spread
@@ -26,6 +27,12 @@ from .determinacy import heldout_spread
 #: A model whose RMS misfit is this many noise sigmas off explains the data structurally
 #: wrong (with the right structure the misfit is the noise: ratio ~1).
 MISFIT_RATIO = 3.0
+
+
+def output_unit(rec: Record) -> str:
+    """The output's unit as a message writes it after a number (``" degC"``), or ``""``."""
+    u = rec.units.get("output")
+    return f" {u}" if u else ""
 
 
 def own_rms(fit: Fit) -> float:
@@ -93,7 +100,7 @@ def validation_misfit(fit: Fit, result: RecordResult, floor: float) -> Flag | No
         ratio = math.sqrt(mse) / ref
         if ratio <= MISFIT_RATIO:
             return None
-    unit = f" {rec.units['output']}" if rec.units.get("output") else ""
+    unit = output_unit(rec)
     allow = "its own event and its parameters' uncertainty allow" if spread else \
         "its own event leaves"
     return Flag("validation_misfit", f"On the events it did not see the model misses the "

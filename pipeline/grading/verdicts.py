@@ -32,7 +32,7 @@ from ..results import RecordResult
 from .closed_loop import closed_loop_flag
 from .consistency import gain_flags
 from .determinacy import response_band, response_change
-from .heldout import MISFIT_RATIO, fit_floor, own_rms, validation_misfit
+from .heldout import MISFIT_RATIO, fit_floor, output_unit, own_rms, validation_misfit
 from .oscillation import oscillation_unmodelled
 
 #: Every flag code, with what it means (the report's legend and the docs read this).
@@ -178,7 +178,7 @@ def _starts_mid_transient(result: RecordResult) -> Flag | None:
         return None  # a straight line: a steady ramp (an integrator off its balance), no transient
     u0 = float(rec.u[0])
     return Flag("starts_mid_transient", f"The record starts with the output moving (by "
-                f"{drift:.3g}{_unit_of_output(rec)} over the {_t(float(t[-1] - t[0]), rec)} "
+                f"{drift:.3g}{output_unit(rec)} over the {_t(float(t[-1] - t[0]), rec)} "
                 f"before the first event) while the input holds {u0:.4g}: the input "
                 f"probably stepped to {u0:.4g} just before the first row. Declare the level "
                 "it came from as initial_input to identify that step too.",
@@ -221,7 +221,7 @@ def _zero_static_gain(result: RecordResult) -> Flag | None:
         return None
     ratio, peak, ev = max(found, key=lambda f: f[0])
     return Flag("zero_static_gain", f"After the step at t = {_t(ev.t0, rec)} the output moves "
-                f"by up to {peak:.3g}{_unit_of_output(rec)} ({ratio:.0f} times the noise) "
+                f"by up to {peak:.3g}{output_unit(rec)} ({ratio:.0f} times the noise) "
                 f"and comes back to where it started (a final change of "
                 f"{ev.y_ss - ev.y0:.3g}): a response with zero static gain (an acceleration, "
                 "a derivative, a washout), which no structure in the table represents; "
@@ -361,15 +361,10 @@ def _baseline(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     if drift <= max(BASELINE_SIGMAS * se, BASELINE_DRIFT * abs(dy)):
         return None
     return Flag("baseline_not_steady", f"The output drifts by {drift:.3g}"
-                f"{_unit_of_output(rec)} ({drift / abs(dy):.0%} of the step's change) over the "
+                f"{output_unit(rec)} ({drift / abs(dy):.0%} of the step's change) over the "
                 f"{_t(float(t[-1] - t[0]), rec)} before the step: the baseline is not steady, "
                 "so y0 and "
                 "the gain are biased.", {"drift": drift, "share": drift / abs(dy)})
-
-
-def _unit_of_output(rec: Record) -> str:
-    u = rec.units.get("output")
-    return f" {u}" if u else ""
 
 
 def _below_sample_time(fit: Fit, ev: Event, rec: Record) -> Flag | None:
@@ -438,12 +433,12 @@ def _misfit(fit: Fit, ev: Event, rec: Record, floor: float) -> Flag | None:
     if not bad and not beyond:
         return Flag("residuals_not_white", f"On its own event the model misses the data by "
                     f"{ratio:.1f} times the noise estimate (RMS {rms:.3g}"
-                    f"{_unit_of_output(rec)}), as the best structure does ({floor:.3g}): the "
+                    f"{output_unit(rec)}), as the best structure does ({floor:.3g}): the "
                     "noise is slower than its estimate, or every structure misses the same "
                     "slow part.", values, severity="info")
     return Flag("residuals_not_white", f"On its own event the model misses the data by "
                 f"{ratio:.1f} times the noise level (RMS {rms:.3g}"
-                f"{_unit_of_output(rec)}, fit {fit_pct:.0f} %): the residuals are structure, "
+                f"{output_unit(rec)}, fit {fit_pct:.0f} %): the residuals are structure, "
                 "not noise" + (" - this is not a model of the data." if bad else "."),
                 values, severity="unreliable" if bad else "warning")
 
@@ -514,7 +509,7 @@ def _overshoot_in_noise(fit: Fit, ev: Event, rec: Record) -> Flag | None:
     if peak > 3.0 * ev.noise:
         return None
     return Flag("overshoot_within_noise", f"The model's overshoot ({peak:.3g}"
-                f"{_unit_of_output(rec)}, zeta = {z:.2g}) is within three noise sigmas "
+                f"{output_unit(rec)}, zeta = {z:.2g}) is within three noise sigmas "
                 f"({ev.noise:.3g}): the data do not show that oscillation (the response is "
                 "the same within the noise).",
                 {"overshoot": peak, "noise": ev.noise, "zeta": z}, severity="info")

@@ -41,6 +41,8 @@ RETRIES = 2
 RETRY_WAIT = 1.0
 #: seconds a connection may stay silent before the attempt fails (a stalled server)
 TIMEOUT = 30.0
+#: the URL schemes a download may use
+SCHEMES = ("http", "https", "ftp")
 
 
 @dataclass(frozen=True)
@@ -180,7 +182,11 @@ def _install(src: Path, target: Path, ds: Dataset) -> Path:
 
 def _download(ds: Dataset, target: Path) -> Path:
     """:func:`_download_once`, tried again :data:`RETRIES` times when it fails (a dropped
-    connection, a timeout, a bad hash); the last failure is raised."""
+    connection, a timeout, a bad hash); the last failure is raised. A URL no downloader
+    takes fails at once."""
+    scheme = ds.url.split(":", 1)[0].lower()
+    if scheme not in SCHEMES:
+        raise ValueError(f"unsupported URL scheme {scheme!r}; expected http, https or ftp")
     for attempt in range(RETRIES + 1):
         try:
             return _download_once(ds, target)
@@ -230,15 +236,12 @@ def _download_once(ds: Dataset, target: Path) -> Path:
 
 
 def _downloader(pooch, url: str, bar):
-    """pooch's downloader for ``url``'s scheme, with :data:`TIMEOUT` (pooch's FTP one
-    has none by default: a stalled server would hang the run); another scheme is a
-    ValueError, reported as the URL that could not be fetched."""
-    scheme = url.split(":", 1)[0].lower()
-    if scheme == "ftp":
+    """pooch's downloader for ``url``'s scheme (one of :data:`SCHEMES`), with
+    :data:`TIMEOUT` (pooch's FTP one has none by default: a stalled server would hang
+    the run)."""
+    if url.split(":", 1)[0].lower() == "ftp":
         return pooch.FTPDownloader(timeout=TIMEOUT, progressbar=bar)
-    if scheme in ("http", "https"):
-        return pooch.HTTPDownloader(timeout=TIMEOUT, progressbar=bar)
-    raise ValueError(f"unsupported URL scheme {scheme!r}; expected http, https or ftp")
+    return pooch.HTTPDownloader(timeout=TIMEOUT, progressbar=bar)
 
 
 class _ProgressBar:
