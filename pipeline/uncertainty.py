@@ -78,10 +78,10 @@ def _blockwise_acov(x: np.ndarray, k: int) -> np.ndarray:
     """``sum_t x_t x_(t+j)`` for ``j = 0..k`` (``x`` centred) by FFTs of blocks of
     ``B >= k`` samples, each correlated with itself and the next block (an overlap-add
     correlation: exact, memory O(B), cost O(n log B)). A block is never longer than the
-    series: a 20,000-sample residual took 262,144-point FFTs for 65,536-sample blocks
-    and the FFT is as long as one block's lags need (issue 30 item 5; the same sums to
-    rounding, 7-37x less time on 10-50 k samples: BENCHMARKS.md, "Residual spectra of
-    the length they need")."""
+    series, and the FFT is as long as one block's lags need: before, a 20,000-sample
+    residual took 262,144-point FFTs (issue 30 item 5; the same sums to rounding, 7-37x
+    less time on 10-50 k samples: BENCHMARKS.md, "Residual spectra of the length they
+    need")."""
     n = x.size
     b = min(max(4 * k, 1 << 16), max(n, 4 * k))
     m = 1 << int(math.ceil(math.log2(b + k + 1)))  # lags 0..k of a b-sample block with
