@@ -21,6 +21,29 @@ def main() -> None:
     except StdoutError as exc:  # --version, --help: written before any command's handler
         report_stdout_failure(exc)
         raise SystemExit(ExitCode.USER_ERROR) from None
+    except SystemExit as exc:
+        _exit_now_if_interrupted(exc.code)
+        raise
+
+
+def _exit_now_if_interrupted(code) -> None:
+    """A command stopped by SIGTERM or SIGINT (exit 128 + the signal) has run its
+    ``finally`` blocks and said so: it exits here without the interpreter's finalization,
+    which a pool's management or queue-feeder thread still running in C aborted once
+    (SIGABRT, "the GIL is released" while finalizing; seen in CI)."""
+    import os
+    import sys
+
+    from .batch import SIGNALS
+
+    if code not in {128 + int(s) for s in SIGNALS}:
+        return
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:  # noqa: BLE001 - a closed stream: nothing more to say
+            pass
+    os._exit(code)
 
 
 if __name__ == "__main__":

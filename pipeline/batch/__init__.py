@@ -8,9 +8,9 @@ interrupts that stop a run without losing its work.
 - :mod:`.forkserver_guard` - the workers' start method.
 """
 
-from .interrupt import deferred, handle_signals, interruption
+from .interrupt import SIGNALS, deferred, handle_signals, interruption
 from .pool import check_executor, local_pool, parallel_map, run_records
 from .progress import Stages, show_progress
 
-__all__ = ["Stages", "check_executor", "deferred", "handle_signals", "interruption",
+__all__ = ["SIGNALS", "Stages", "check_executor", "deferred", "handle_signals", "interruption",
            "local_pool", "parallel_map", "run_records", "show_progress"]
