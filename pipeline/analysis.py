@@ -31,6 +31,7 @@ from .grading import grade, information_criteria, no_usable_model, per_step, rec
 from .methods import REGISTRY, event_fit, identify, select_methods, span_refinement
 from .metrics import mse
 from .outliers import without_outliers
+from .parallel import Workers, spread, worth_spreading
 from .record import Record
 from .refine import RefineOptions, event_states, held_out_events
 from .results import RecordResult
@@ -64,11 +65,14 @@ class AnalysisOptions:
 
 
 def analyse(record: Record, options: AnalysisOptions | None = None, *,
-            name: str | None = None) -> RecordResult:
+            name: str | None = None, workers: Workers | None = None) -> RecordResult:
     """Segment, identify on the chosen events, validate on the others (pure).
 
     A record that cannot be analysed (no event, a missing identification event) comes
     back with ``error`` set; a method that does not apply gives a ``not_applicable`` fit.
+    ``workers``: processes for the independent fits of a long record (each event's
+    methods, each refinement over all events, the held-out errors, the per-step
+    consistency: :mod:`pipeline.parallel`); the result is the same without them.
     """
     opt = options or AnalysisOptions()
     record = without_outliers(record)  # a glitch is named (outlier_samples), not fitted
@@ -87,21 +91,24 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
             f"has {len(events)} event(s) (0..{len(events) - 1})"))
     validation = [e.index for e in events if e.index not in ident]
     roles = {e.index: ("identification" if e.index in ident else "validation") for e in events}
-    fits: list[Fit] = []
     states = event_states(record, events)
-    for i in ident:
-        fits.extend(_event_fits(record, events, i, validation, states, opt))
+    pool = worth_spreading(workers, sum(events[i].i_end - events[i].i_start for i in ident),
+                           len(ident))
+    shared = (record, events, ident, validation, states, opt)
+    fits = [f for fs in spread(pool, _event_fits, shared, ident) for f in fs]
     if len(ident) > 1:
-        fits.extend(_joint_fits(record, events, ident, validation, states, fits, opt))
+        models = tuple(f.model for f in fits if f.ok and f.event == ident[0])
+        fits.extend(spread(pool, _joint_fit, (*shared, models), _joint_methods(events, ident,
+                                                                               opt)))
     if opt.events == "all" and len(ident) > 1:
-        fits = [_held_out(f, record, events, ident) for f in fits]
+        fits = spread(pool, _held_out, shared, fits)
     fits = _with_information_criteria(record, events, fits)
     result = replace(base, roles=roles, fits=fits)
     # the per-step consistency is judged at the dynamics of a first choice; the
     # recommendation is then made again from the verdicts and flags grading gave
     cons = per_step(result, recommend(result), states, setting=opt.consistency,
-                    options=opt.refine)
-    graded = grade(replace(result, consistency=cons))
+                    options=opt.refine, workers=workers)
+    graded = grade(replace(result, consistency=cons), workers=workers)
     recommendation = recommend(graded)
     chosen = graded.fit(recommendation.method, recommendation.event,
                         recommendation.events) if recommendation else None
@@ -164,10 +171,12 @@ def no_event_message(record: Record) -> str:
     return msg
 
 
-def _event_fits(record: Record, events, i: int, validation: list[int], states: list[str],
-                opt: AnalysisOptions) -> list[Fit]:
+def _event_fits(shared: tuple, i: int) -> list[Fit]:
     """The graphical methods, then the refinements, on event ``i`` (its state at rest,
-    carried from an earlier event that was, or estimated: :mod:`pipeline.refine.joint`)."""
+    carried from an earlier event that was, or estimated: :mod:`pipeline.refine.joint`).
+    ``shared``: the record, its events, the identification and validation events, their
+    states and the options (one task of :func:`pipeline.parallel.spread`)."""
+    record, events, _, validation, states, opt = shared
     ev = events[i]
     data = EventData.from_event(record, ev)
     selected = select_methods(opt.methods, ev.kind)
@@ -193,30 +202,32 @@ def _event_fits(record: Record, events, i: int, validation: list[int], states: l
     return out
 
 
-def _joint_fits(record: Record, events, ident: list[int], validation: list[int],
-                states: list[str], fits: list[Fit], opt: AnalysisOptions) -> list[Fit]:
-    """Each selected refinement once over all identification events."""
-    out = []
+def _joint_methods(events, ident: list[int], opt: AnalysisOptions) -> list[str]:
+    """The selected refinements for the identification events' kinds, each once."""
     kinds = {events[i].kind for i in ident}
-    methods = [m for k in sorted(kinds) for m in select_methods(opt.methods, k)
-               if m in REGISTRY and REGISTRY[m].kind == "refinement"]
-    models = [f.model for f in fits if f.ok and f.event == ident[0]]
-    for mid in dict.fromkeys(methods):
-        t0 = time.perf_counter()
-        fit = span_refinement(record, events, ident, mid, models=models, states=states,
-                              cross_validation=opt.events == "all", options=opt.refine)
-        if fit.ok:
-            metrics = score(fit.model, record, events, events[ident[0]], validation,
-                            fit.balance_point)
-            fit = replace(fit, metrics={**metrics, **fit.metrics})
-        out.append(replace(fit, seconds=time.perf_counter() - t0))
-    return out
+    return list(dict.fromkeys(m for k in sorted(kinds) for m in select_methods(opt.methods, k)
+                              if m in REGISTRY and REGISTRY[m].kind == "refinement"))
 
 
-def _held_out(fit: Fit, record: Record, events, ident: list[int]) -> Fit:
+def _joint_fit(shared: tuple, mid: str) -> Fit:
+    """Refinement ``mid`` once over all identification events, started from the first
+    event's models (``shared``: :func:`_event_fits`' and those models)."""
+    record, events, ident, validation, states, opt, models = shared
+    t0 = time.perf_counter()
+    fit = span_refinement(record, events, ident, mid, models=models, states=states,
+                          cross_validation=opt.events == "all", options=opt.refine)
+    if fit.ok:
+        metrics = score(fit.model, record, events, events[ident[0]], validation,
+                        fit.balance_point)
+        fit = replace(fit, metrics={**metrics, **fit.metrics})
+    return replace(fit, seconds=time.perf_counter() - t0)
+
+
+def _held_out(shared: tuple, fit: Fit) -> Fit:
     """With every event identifying: a one-event model's error on the other events (at
     most :data:`pipeline.refine.joint.MAX_FOLDS` of them,
     :func:`pipeline.refine.held_out_events`)."""
+    record, events, ident = shared[:3]
     if not fit.ok or fit.events or "mse_cross_validation" in fit.metrics:
         return fit
     _, e = heldout_residuals(fit.model, record, events, held_out_events(ident, fit.event),

@@ -14,6 +14,7 @@ Both commands end in :func:`pipeline.analysis.analyse` with options built by
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 from contextlib import ExitStack
@@ -25,7 +26,15 @@ import polars as pl
 
 from . import memory, report  # report's names load on first use (matplotlib, Jinja2)
 from .analysis import AnalysisOptions, analyse
-from .batch import Stages, check_executor, local_pool, parallel_map, run_records, show_progress
+from .batch import (
+    Stages,
+    check_executor,
+    lazy_pool,
+    local_pool,
+    parallel_map,
+    run_records,
+    show_progress,
+)
 from .config import DataConfig, RunConfig, load_config
 from .errors import ExitCode, UserError
 from .files import check_writable, refuse_input, same_file, through_link
@@ -41,6 +50,7 @@ from .gate import (
 from .grading import record_verdict
 from .io import check_file, dataset, fetch, files_named, load_record
 from .log import logger
+from .parallel import Workers
 from .record import Record
 from .results import RecordResult, RunResult, fit_times, results_json
 from .schema import ResultsDoc
@@ -150,33 +160,39 @@ def effective_data(cfg: RunConfig, spec: RecordSpec) -> DataConfig:
 
 # -- one record --------------------------------------------------------------------------
 
-def analysed(record: Record, options: AnalysisOptions, name: str | None = None
-             ) -> RecordResult:
+def analysed(record: Record, options: AnalysisOptions, name: str | None = None,
+             workers: Workers | None = None) -> RecordResult:
     """:func:`pipeline.analysis.analyse`, then the C heap's freed pages handed back
     (:func:`pipeline.memory.release`): a long record's analysis frees thousands of
     window-sized arrays scattered through the heap, which the next stage (a report, the
-    next record in a worker) could not reuse for its record-long arrays."""
-    res = analyse(record, options, name=name)
+    next record in a worker) could not reuse for its record-long arrays. ``workers``: for
+    a long record's fits (:mod:`pipeline.parallel`)."""
+    res = analyse(record, options, name=name, workers=workers)
     memory.release()
     return res
 
 
-def process_record(spec: RecordSpec, cfg: RunConfig) -> RecordResult:
-    """Load and analyse one record; a bad record comes back with ``error`` set."""
+def process_record(spec: RecordSpec, cfg: RunConfig, workers: Workers | None = None
+                   ) -> RecordResult:
+    """Load and analyse one record; a bad record comes back with ``error`` set.
+    ``workers``: for its fits, when the batch is this one record (:func:`_run_config`)."""
     try:
         log.info("%s: loading %s", spec.name, spec.path, extra={"stage": "load"})
         t0 = time.perf_counter()
         record = load_record(Path(spec.path), effective_data(cfg, spec), name=spec.name)
         log.info("%s: loaded %d samples in %.2f s; analysing", spec.name, record.n_samples,
                  time.perf_counter() - t0, extra={"stage": "analyse"})
-        return analysed(record, analysis_options(cfg), name=spec.name)
+        return analysed(record, analysis_options(cfg), name=spec.name, workers=workers)
     except UserError as exc:
         return RecordResult(name=spec.name, source=spec.path, error=exc.message)
 
 
 def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
-                  out_dir: Path | None = None, created: str | None = None) -> RunResult:
+                  out_dir: Path | None = None, created: str | None = None,
+                  workers: int | None = 1) -> RunResult:
     """``pipeline identify``: one file, analysed; reports written when ``out_dir`` is set.
+    ``workers``: processes for a long record's fits (None: the cores; started only when
+    the record has enough to fit, :mod:`pipeline.parallel`).
 
     A record that cannot be analysed is a :class:`UserError` (a single file has nothing
     else to report).
@@ -188,7 +204,8 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
     t1 = time.perf_counter()
     log.info("%s: loaded %d samples in %.2f s; analysing", record.name, record.n_samples,
              t1 - t0, extra={"stage": "load"})
-    res = analysed(record, options)
+    with lazy_pool(workers) as pool:
+        res = analysed(record, options, workers=pool)
     if res.error:
         raise UserError(res.error)
     log.info("%s: %d event(s), %d fit(s) in %.2f s", record.name, len(res.events),
@@ -203,11 +220,11 @@ def identify_file(path: Path, data: DataConfig, options: AnalysisOptions, *,
 
 
 def identify_json(path: Path, data: DataConfig, options: AnalysisOptions, *,
-                  out_dir: Path | None = None) -> str:
+                  out_dir: Path | None = None, workers: int | None = 1) -> str:
     """``pipeline identify --json``: :func:`identify_file`'s results.json text, made once
     the record's arrays and the fits are dropped (the document alone is kept: at 10 M
     samples and 2000 events the text and its making are 1.4x the arrays)."""
-    doc = identify_file(path, data, options, out_dir=out_dir).to_doc()
+    doc = identify_file(path, data, options, out_dir=out_dir, workers=workers).to_doc()
     return results_json(doc)
 
 
@@ -243,7 +260,11 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     plan = _plan(cfg, out_dir, executor, baseline, junit, history)
     pool = stack.enter_context(local_pool(workers if executor == "local" else 1,
                                           len(plan.specs), draws=cfg.report.plots != "none"))
-    records = run_records(plan.specs, cfg, process_record, workers=workers, executor=executor,
+    job = process_record
+    if executor == "local" and len(plan.specs) == 1:  # one record: its fits spread instead
+        fits_pool = stack.enter_context(lazy_pool(workers))
+        job = functools.partial(process_record, workers=fits_pool) if fits_pool else job
+    records = run_records(plan.specs, cfg, job, workers=workers, executor=executor,
                           scheduler=scheduler, progress=progress, pool=pool)
     stages = stack.enter_context(Stages(show_progress(progress)))
     # every record failing still writes the reports, the JUnit file and the history (CI

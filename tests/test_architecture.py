@@ -22,7 +22,7 @@ MAX_LINES = 600
 #: The numerical core: pure functions on arrays and frozen dataclasses.
 CORE = ("simulation", "segmentation", "methods", "refine", "grading", "models", "responses",
         "signal", "metrics", "uncertainty", "events", "record", "fit", "validate", "results",
-        "analysis", "memory")
+        "analysis", "memory", "parallel")
 #: What the core never imports: files, loaders, reports, the command line, the batch
 #: layer, the gate, the config and the run.
 EDGES = ("io", "report", "cli", "batch", "gate", "run", "config", "files", "api")

@@ -9,8 +9,9 @@ interrupts that stop a run without losing its work.
 """
 
 from .interrupt import SIGNALS, deferred, handle_signals, interruption
-from .pool import check_executor, local_pool, parallel_map, run_records
+from .pool import LazyPool, check_executor, lazy_pool, local_pool, parallel_map, run_records
 from .progress import Stages, show_progress
 
-__all__ = ["SIGNALS", "Stages", "check_executor", "deferred", "handle_signals", "interruption",
-           "local_pool", "parallel_map", "run_records", "show_progress"]
+__all__ = ["SIGNALS", "LazyPool", "Stages", "check_executor", "deferred", "handle_signals",
+           "interruption", "lazy_pool", "local_pool", "parallel_map", "run_records",
+           "show_progress"]

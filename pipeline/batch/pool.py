@@ -31,6 +31,7 @@ is None and stderr is a terminal; each record's time and outcome is logged at IN
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import logging
 import multiprocessing
@@ -198,6 +199,108 @@ def local_pool(workers: int | None, n_items: int,
         terminate(pool)
         raise
     pool.shutdown(wait=True)
+
+
+class LazyPool:
+    """Worker processes for one record's fits (a :class:`pipeline.parallel.Workers`),
+    started at the first :meth:`map`, so a short log that never spreads its fits never
+    pays for them (the fork server's imports: about 1.5 s of CPU).
+
+    :meth:`map` lets this process take queued chunks itself while the workers start, as
+    :func:`_run_pool` does with records; if a worker dies (the OOM killer), the work goes
+    on in this process: the same results, a warning on the log. Use it
+    through :func:`lazy_pool`, which ends the workers.
+    """
+
+    def __init__(self, size: int):
+        self.size = size
+        self._pool: ProcessPoolExecutor | None = None
+        self._broken = False
+
+    def map(self, fn: Callable[[Any], Any], items: Sequence) -> list:
+        items = list(items)
+        if self._broken:  # a worker died earlier: the rest of the record runs here
+            return [fn(x) for x in items]
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.size, mp_context=pool_context(), initializer=_worker_init,
+                initargs=(os.getpid(),))
+        out, self._broken = _steal_map(self._pool, self.size, fn, items)
+        return out
+
+    def close(self, *, cancel: bool = False) -> None:
+        """Wait for the workers to end (``cancel``: end them now)."""
+        if self._pool is not None:
+            terminate(self._pool) if cancel else self._pool.shutdown(wait=True)
+            self._pool = None
+
+
+@contextlib.contextmanager
+def lazy_pool(workers: int | None) -> Iterator[LazyPool | None]:
+    """A :class:`LazyPool` of ``workers`` processes (default: the cores), or None for one;
+    leaving the block by an exception (SIGTERM's included) ends the workers at once."""
+    n = resolve_workers(workers, os.cpu_count() or 1) if workers is None else workers
+    if n < 1:
+        raise UserError(f"workers must be at least 1, got {n}")
+    if n == 1:
+        yield None
+        return
+    pool = LazyPool(n)
+    try:
+        yield pool
+    except BaseException:
+        pool.close(cancel=True)
+        raise
+    pool.close()
+
+
+def _steal_map(pool: ProcessPoolExecutor, size: int, fn: Callable[[Any], Any], items: list
+               ) -> tuple[list, bool]:
+    """``([fn(x) for x in items], broken)`` on ``pool``: at most ``size + 1`` items in the
+    pool at a time, while this process runs the last queued ones until a worker has
+    returned one. When a worker dies (``broken``), what the pool had not returned is run
+    here, and a warning says so. (Nothing is ever cancelled: Python 3.11's pool raises
+    in its own thread when it breaks with cancelled futures still listed.)"""
+    from concurrent.futures import FIRST_COMPLETED, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    out: list = [None] * len(items)
+    queue = collections.deque(range(len(items)))
+    running: dict[Future, int] = {}
+    returned = broken = False
+    while queue or running:
+        try:
+            while queue and len(running) <= size:
+                k = queue.popleft()
+                running[pool.submit(fn, items[k])] = k
+        except BrokenProcessPool:
+            queue.appendleft(k)
+            broken = True
+        if broken:
+            break
+        if queue and not returned:  # the workers are starting: this process takes a part
+            k = queue.pop()
+            out[k] = fn(items[k])
+            returned = any(f.done() for f in running)
+            continue
+        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        returned = True
+        for f in done:
+            k = running.pop(f)
+            try:
+                out[k] = f.result()
+            except BrokenProcessPool:
+                running[f] = k
+                broken = True
+        if broken:
+            break
+    if broken:
+        lost = sorted([*running.values(), *queue])
+        log.warning("a worker process died; %d of %d parts of a record's fits are computed "
+                    "in the main process instead", len(lost), len(items))
+        for k in lost:
+            out[k] = fn(items[k])
+    return out, broken
 
 
 def terminate(pool: ProcessPoolExecutor) -> None:

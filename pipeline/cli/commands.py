@@ -228,6 +228,8 @@ def identify(
     = False,
     out_dir: Annotated[Path | None, typer.Option("--out", help="also write reports here")]
     = None,
+    workers: Annotated[int | None, typer.Option(
+        help="parallel processes for a long log's fits (default: cores)")] = None,
     quiet: Annotated[bool, typer.Option(
         "--quiet", "-q", help="print the recommended model's head lines only")] = False,
     verbose: Annotated[bool, typer.Option(
@@ -249,9 +251,9 @@ def identify(
     options = AnalysisOptions(events=_events_arg(events), methods=_methods_arg(method),
                               consistency=consistency)
     if as_json:
-        sys.stdout.write(identify_json(file, data, options, out_dir=out_dir))
+        sys.stdout.write(identify_json(file, data, options, out_dir=out_dir, workers=workers))
         return
-    run_ = identify_file(file, data, options, out_dir=out_dir)
+    run_ = identify_file(file, data, options, out_dir=out_dir, workers=workers)
     if quiet:
         for line in record_head_lines(run_.records[0]):
             out.print(printable(line), markup=False)

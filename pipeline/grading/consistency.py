@@ -32,6 +32,7 @@ from ..events import Event, EventData
 from ..fit import Fit, Flag
 from ..methods import event_fit, identify
 from ..models import PARAMETERS, STRUCTURES, ProcessModel
+from ..parallel import Workers, spread, worth_spreading
 from ..record import Record
 from ..refine import MIN_DOF, RefineOptions
 from ..results import Consistency, EventEstimate, Recommendation, RecordResult, StaticMap
@@ -55,7 +56,8 @@ AUTO_MIN_STEPS = 3
 
 def per_step(result: RecordResult, recommendation: Recommendation | None,
              states: list[str], *, setting: bool | None = None,
-             options: RefineOptions | None = None) -> Consistency | None:
+             options: RefineOptions | None = None,
+             workers: Workers | None = None) -> Consistency | None:
     """Each step of ``result`` on its own (:func:`event_estimates`) and their static map,
     when :func:`wanted`: with the recommended structure where it has a lag and settles
     (:func:`per_event_structure`), the gains at the recommended model's dynamics."""
@@ -66,7 +68,7 @@ def per_step(result: RecordResult, recommendation: Recommendation | None,
     structure = per_event_structure(chosen.model.structure if chosen else None)
     reference = chosen.model if chosen and chosen.model.structure == structure else None
     est = event_estimates(result.record, result.events, states, structure, fits=result.fits,
-                          reference=reference, options=options)
+                          reference=reference, options=options, workers=workers)
     return Consistency(tuple(est), static_map(est))
 
 
@@ -89,27 +91,26 @@ def per_event_structure(structure: str | None) -> str:
 def event_estimates(record: Record, events: list[Event], states: list[str],
                     structure: str = FALLBACK, *, fits: list[Fit] = (),
                     reference: ProcessModel | None = None,
-                    options: RefineOptions | None = None) -> list[EventEstimate]:
+                    options: RefineOptions | None = None,
+                    workers: Workers | None = None) -> list[EventEstimate]:
     """Every settling step event on its own: its dominant time constant (with interval)
     from the refinement of ``structure`` on that event (reusing a fit the analysis made),
     its gain (with interval) from :func:`step_gains` at the dynamics of ``reference`` (the
     recommended model; else of the first event's own fit)."""
     method = f"lsq_{structure}"
-    own: dict[int, Fit] = {}
-    for ev in events:
-        if ev.kind != "step" or ev.response != "settling" or ev.i_end - ev.i_start < 10:
-            continue
-        fit = next((f for f in fits if f.method == method and f.event == ev.index
-                    and not f.events), None)
-        if fit is None:
-            data = EventData.from_event(record, ev)
-            starts = [f.model for f in fits if f.ok and f.event == ev.index]
-            starts += [g.model for m in ("first_order", "viteckova1")
-                       if (g := identify(data, m)).ok]
-            fit = event_fit(record, events, ev.index, method, models=starts, states=states,
-                            options=options)
-        if fit.ok:
-            own[ev.index] = fit
+    steps = [ev for ev in events
+             if ev.kind == "step" and ev.response == "settling" and ev.i_end - ev.i_start >= 10]
+    made: dict[int, Fit] = {}
+    for f in fits:  # the analysis's own fit of the structure on an event, when it made one
+        if f.method == method and not f.events:
+            made.setdefault(f.event, f)
+    todo = [(ev.index, tuple(f.model for f in fits if f.ok and f.event == ev.index))
+            for ev in steps if ev.index not in made]
+    pool = worth_spreading(workers, sum(events[i].i_end - events[i].i_start for i, _ in todo),
+                           len(todo))
+    made.update(zip((i for i, _ in todo), spread(
+        pool, _own_fit, (record, events, states, method, options), todo), strict=True))
+    own: dict[int, Fit] = {ev.index: made[ev.index] for ev in steps if made[ev.index].ok}
     if not own:
         return []
     gains = step_gains(record, events, reference or next(iter(own.values())).model)
@@ -127,6 +128,18 @@ def event_estimates(record: Record, events: list[Event], states: list[str],
                                  float(fit.model.params[name]), tuple(fit.ci95[name]),
                                  fit.refinement.state_text if fit.is_refined else "", K_se))
     return out
+
+
+def _own_fit(shared: tuple, task: tuple[int, tuple[ProcessModel, ...]]) -> Fit:
+    """Refinement ``method`` of one step on its own, started from the analysis's models
+    of that event and its first-order and Viteckova readings (a task of
+    :func:`pipeline.parallel.spread`)."""
+    record, events, states, method, options = shared
+    i, starts = task
+    data = EventData.from_event(record, events[i])
+    models = [*starts, *(g.model for m in ("first_order", "viteckova1")
+                         if (g := identify(data, m)).ok)]
+    return event_fit(record, events, i, method, models=models, states=states, options=options)
 
 
 def step_gains(record: Record, events: list[Event], shape: ProcessModel

@@ -26,6 +26,7 @@ import numpy as np
 from ..events import MOVED_SIGMAS, Event, EventData
 from ..fit import VERDICTS, Fit, Flag
 from ..models import PARAMETERS
+from ..parallel import Workers, spread, worth_spreading
 from ..record import Record, in_time_unit
 from ..refine import baseline_drift
 from ..results import RecordResult
@@ -114,19 +115,28 @@ def verdict_of(flags: tuple[Flag, ...] | list[Flag]) -> str:
     return SEVERITY_ORDER[worst]
 
 
-def grade(result: RecordResult) -> RecordResult:
-    """``result`` with a verdict and flags on every ok fit (pure)."""
+def grade(result: RecordResult, workers: Workers | None = None) -> RecordResult:
+    """``result`` with a verdict and flags on every ok fit (pure); ``workers``: for a long
+    record's many fits (:mod:`pipeline.parallel`)."""
     if not result.ok or result.record is None:
         return result
     shared = record_flags(result)
+    todo = [f for f in result.fits if f.ok and f.model is not None]
+    pool = worth_spreading(workers, result.record.n_samples, len(todo))
+    own = iter(spread(pool, _own_flags, result, todo))
     fits = []
     for f in result.fits:
         if not f.ok or f.model is None:
             fits.append(f)
             continue
-        flags = tuple(fit_flags(f, result)) + shared
+        flags = next(own) + shared
         fits.append(replace(f, flags=flags, verdict=verdict_of(flags)))
     return replace(result, fits=fits, flags=shared)
+
+
+def _own_flags(result: RecordResult, fit: Fit) -> tuple[Flag, ...]:
+    """:func:`fit_flags` as a tuple (a task of :func:`pipeline.parallel.spread`)."""
+    return tuple(fit_flags(fit, result))
 
 
 def no_usable_model(result: RecordResult, best: Fit) -> Flag:
