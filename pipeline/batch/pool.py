@@ -4,9 +4,10 @@
 :func:`pipeline.run.process_record`) to every record spec and returns the results **in the
 order of the specs**, whatever order they finish in. The job never raises for a bad record
 (the failure travels in the result). If the job raises anyway, that record comes back
-failed with the exception as its one-line reason (:func:`crashed`); if a pool worker dies,
-the pool is broken and the records not finished by then come back failed the same way: the
-batch always completes.
+failed with the exception as its one-line reason (:func:`crashed`); if a pool worker dies
+(the OOM killer), the records the broken pool had not finished are run again, each in a
+worker of its own, and only one whose worker dies again fails (:func:`died`): the batch
+always completes.
 
 * ``workers == 1`` (or a single record): a plain loop in this process.
 * ``workers > 1`` (default: one per core, at most one per record): a
@@ -39,7 +40,8 @@ import os
 import socket
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from typing import Any
 
@@ -261,9 +263,6 @@ def _steal_map(pool: ProcessPoolExecutor, size: int, fn: Callable[[Any], Any], i
     returned one. When a worker dies (``broken``), what the pool had not returned is run
     here, and a warning says so. (Nothing is ever cancelled: Python 3.11's pool raises
     in its own thread when it breaks with cancelled futures still listed.)"""
-    from concurrent.futures import FIRST_COMPLETED, wait
-    from concurrent.futures.process import BrokenProcessPool
-
     out: list = [None] * len(items)
     queue = collections.deque(range(len(items)))
     running: dict[Future, int] = {}
@@ -327,44 +326,141 @@ def _run_pool(specs: list, cfg, job: Job, pool: ProcessPoolExecutor, tracker: Tr
     """Records in a process pool; the parent works too while the workers start.
 
     Starting the workers costs seconds (the fork server imports numpy, scipy, polars).
-    Instead of waiting, the parent takes the last queued records itself (a pending future
-    can be cancelled and run here), but only until a worker has finished its first
-    record: from then on the parent would only compete with the workers for the cores.
-    Results are the same either way (pure per-record jobs).
+    Instead of waiting, the parent takes the last queued records itself, but only until a
+    worker has finished its first record: from then on the parent would only compete with
+    the workers for the cores. At most one record per worker (and one more) is in the
+    pool at a time, so nothing is ever cancelled (Python 3.11's pool hangs when it breaks
+    with a cancelled future in its books). Results are the same either way (pure
+    per-record jobs).
+
+    When a worker dies (the OOM killer), the pool breaks and every record in it fails
+    with it: those are run again, each in a worker of its own (:func:`_run_isolated`), so
+    only a record that kills its worker again fails; the records not yet sent go to a
+    fresh pool.
     """
+    size = max(1, getattr(pool, "_max_workers", 1))
     out: list = [None] * len(specs)
-    futures: dict[Future, int] = {pool.submit(timed, job, spec, cfg): i
-                                  for i, spec in enumerate(specs)}
-    workers_up: list[bool] = []
-    for fut in futures:
-        fut.add_done_callback(lambda f: workers_up.append(not f.cancelled()))
-    stolen = set()
-    for fut in reversed(list(futures)):
-        if any(workers_up) or not fut.cancel():
+    queue = collections.deque(range(len(specs)))
+    running: dict[Future, int] = {}
+    returned = False
+    lost: list[int] = []
+    while queue or running:
+        while queue and len(running) <= size and not lost:
+            i = queue.popleft()
+            try:
+                running[pool.submit(timed, job, specs[i], cfg)] = i
+            except BrokenProcessPool:
+                lost.append(i)
+        if lost and not running:
             break
-        i = futures[fut]
-        stolen.add(fut)
-        out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
-    for fut in as_completed([f for f in futures if f not in stolen]):
-        i = futures[fut]
-        try:
-            out[i], seconds = fut.result()
-        except Exception as exc:  # a worker died (BrokenProcessPool) or the job raised
-            out[i], seconds = crashed(specs[i], exc), None
-        tracker.done(out[i], seconds)
+        if queue and not returned and not lost:  # the workers are starting: take one here
+            i = queue.pop()
+            out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
+            returned = any(f.done() for f in running)
+            continue
+        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        returned = True
+        for fut in done:
+            i = running.pop(fut)
+            try:
+                out[i], seconds = fut.result()
+            except BrokenProcessPool:
+                lost.append(i)
+                continue
+            except Exception as exc:  # the job raised: its contract is broken
+                out[i], seconds = crashed(specs[i], exc), None
+            tracker.done(out[i], seconds)
+    if lost:
+        log.warning("a worker process died; the %d record(s) it took with it are run "
+                    "again, each in a worker of its own", len(lost))
+        _run_isolated(sorted(lost), specs, cfg, job, out, tracker, size)
+        if queue:  # never sent: a fresh pool, as before the death
+            rest = sorted(queue)
+            fresh = ProcessPoolExecutor(max_workers=size, mp_context=pool_context(),
+                                        initializer=_worker_init, initargs=(os.getpid(),))
+            try:
+                done = _run_pool([specs[i] for i in rest], cfg, job, fresh, tracker)
+            except BaseException:
+                terminate(fresh)
+                raise
+            fresh.shutdown(wait=True)
+            for i, r in zip(rest, done, strict=True):
+                out[i] = r
     return out
+
+
+def _run_isolated(indices: list[int], specs: list, cfg, job: Job, out: list,
+                  tracker: Tracker, size: int) -> None:
+    """Each record of ``indices`` in a fresh one-worker pool (``size`` at a time), its
+    result into ``out``: a record whose worker dies again fails alone (:func:`died`)."""
+    ctx = pool_context()
+    pending = collections.deque(indices)
+    active: dict[Future, tuple[int, ProcessPoolExecutor]] = {}
+    try:
+        while pending or active:
+            while pending and len(active) < size:
+                i = pending.popleft()
+                ex = ProcessPoolExecutor(max_workers=1, mp_context=ctx,
+                                         initializer=_worker_init, initargs=(os.getpid(),))
+                active[ex.submit(timed, job, specs[i], cfg)] = (i, ex)
+            done, _ = wait(active, return_when=FIRST_COMPLETED)
+            for fut in done:
+                i, ex = active.pop(fut)
+                try:
+                    out[i], seconds = fut.result()
+                except BrokenProcessPool:
+                    out[i], seconds = died(specs[i]), None
+                except Exception as exc:
+                    out[i], seconds = crashed(specs[i], exc), None
+                ex.shutdown(wait=True)
+                tracker.done(out[i], seconds)
+    except BaseException:
+        for _, ex in active.values():
+            terminate(ex)
+        raise
+
+
+def died(spec) -> RecordResult:
+    """The failed result of a record whose worker process died, twice: the second time
+    in a worker of its own."""
+    where = getattr(spec, "path", None) or getattr(spec, "name", None) or str(spec)
+    return RecordResult(name=getattr(spec, "name", str(spec)), source=str(where), error=(
+        f"{where}: its worker process died while processing it, in the shared pool and "
+        "again in a worker of its own (killed by the system: out of memory?); the other "
+        "records went on"))
+
+
+def is_broken(pool: ProcessPoolExecutor) -> bool:
+    """Whether a worker of ``pool`` died (it takes no more work). ``_broken`` is the
+    executor's own flag (CPython 3.11-3.14); there is no public one."""
+    return bool(getattr(pool, "_broken", False))
 
 
 @contextlib.contextmanager
 def parallel_map(pool: ProcessPoolExecutor | None, n_items: int, min_items: int = 8):
     """A ``map`` for pure, picklable per-record work (e.g. a record's report section):
-    ``pool``'s ``map`` (the batch's pool, used again) when there is one and enough items,
-    else the built-in ``map`` in this process."""
-    if pool is None or n_items < min_items:
+    ``pool``'s ``map`` (the batch's pool, used again) when there is one, it is whole and
+    there are enough items, else the built-in ``map`` in this process. If a worker dies
+    meanwhile, the items it did not return are computed here (a warning says so): a dead
+    worker never costs the report."""
+    if pool is None or n_items < min_items or is_broken(pool):
         yield map
         return
     n = max(1, getattr(pool, "_max_workers", 1))
-    yield lambda f, *its: pool.map(f, *its, chunksize=max(1, n_items // (4 * n)))
+
+    def robust(f, *its):
+        items = list(zip(*its, strict=True))
+        done = 0
+        try:
+            for r in pool.map(f, *its, chunksize=max(1, n_items // (4 * n))):
+                yield r
+                done += 1
+        except BrokenProcessPool:
+            log.warning("a worker process died; the last %d item(s) are made in the main "
+                        "process", len(items) - done)
+            for args in items[done:]:
+                yield f(*args)
+    yield robust
 
 
 def probe_scheduler(address: str, timeout: float = 5.0) -> None:
