@@ -142,10 +142,12 @@ def _run_inline(specs: list, cfg, job: Job, tracker: Tracker) -> list:
             t0 = time.perf_counter()
             try:
                 result = job(spec, cfg)
-            except Exception as exc:  # the job's contract is broken; keep the batch going
+            except BaseException as exc:  # the job's contract is broken; the batch goes on
                 stop = interruption(exc)  # a signal that came wrapped: not the record's
                 if stop is not None:
                     raise stop from None
+                if not record_fault(exc):
+                    raise
                 result = crashed(spec, exc)
             tracker.done(result, time.perf_counter() - t0)
             out.append(result)
@@ -367,7 +369,9 @@ def _run_pool(specs: list, cfg, job: Job, pool: ProcessPoolExecutor, tracker: Tr
             except BrokenProcessPool:
                 lost.append(i)
                 continue
-            except Exception as exc:  # the job raised: its contract is broken
+            except BaseException as exc:  # the job raised: its contract is broken
+                if not record_fault(exc):
+                    raise
                 out[i], seconds = crashed(specs[i], exc), None
             tracker.done(out[i], seconds)
     if lost:
@@ -410,7 +414,9 @@ def _run_isolated(indices: list[int], specs: list, cfg, job: Job, out: list,
                     out[i], seconds = fut.result()
                 except BrokenProcessPool:
                     out[i], seconds = died(specs[i]), None
-                except Exception as exc:
+                except BaseException as exc:
+                    if not record_fault(exc):
+                        raise
                     out[i], seconds = crashed(specs[i], exc), None
                 ex.shutdown(wait=True)
                 tracker.done(out[i], seconds)
@@ -418,6 +424,13 @@ def _run_isolated(indices: list[int], specs: list, cfg, job: Job, out: list,
         for _, ex in active.values():
             terminate(ex)
         raise
+
+
+def record_fault(exc: BaseException) -> bool:
+    """Whether a job's exception is its record's fault (the record fails, the batch goes
+    on): any Exception, and a native library's panic (pyo3's ``PanicException``, a
+    BaseException); not KeyboardInterrupt, SystemExit or an interruption."""
+    return isinstance(exc, Exception) or type(exc).__name__ == "PanicException"
 
 
 def died(spec) -> RecordResult:
@@ -508,7 +521,9 @@ def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracke
             i = index[fut.key]
             try:
                 out[i], seconds = fut.result()
-            except Exception as exc:  # the job raised on the worker, or the worker died
+            except BaseException as exc:  # the job raised on the worker, or it died
+                if not record_fault(exc):
+                    raise
                 out[i], seconds = crashed(specs[i], exc), None
             tracker.done(out[i], seconds)
             fut.release()

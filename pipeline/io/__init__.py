@@ -38,7 +38,15 @@ def load_record(path: Path, data: DataSection, name: str | None = None) -> Recor
     if not path.is_file():
         raise UserError(f"{path}: file not found")
     fmt = format_of(path, data.format)
-    return fmt.load(path, data, options_for(data, fmt, str(path)), name or path.stem)
+    try:
+        return fmt.load(path, data, options_for(data, fmt, str(path)), name or path.stem)
+    except BaseException as exc:
+        # a native reader's panic (polars, pyo3: a BaseException, which no `except
+        # Exception` stops) on a damaged file it does not check is the file's fault
+        if type(exc).__name__ != "PanicException":
+            raise
+        raise UserError(f"{path}: the {fmt.name} reader failed on this file (a damaged "
+                        f"file? {' '.join(str(exc).split())[:200]})") from None
 
 
 __all__ = ["FORMATS", "SUFFIXES", "DataConfig", "Format", "Record", "SignalConfig", "check_file",

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import polars as pl
 import polars.selectors as cs
+from polars.exceptions import PanicException
 
 from ..errors import UserError
 from ..record import Record
@@ -52,7 +53,9 @@ def read_columnar_table(path: Path, data: DataSection | None = None,
         names = tuple(c.strip() for c in columns)
         wanted = _wanted(Table(pl.DataFrame(), names, Places(path, ())), data, options)
         frame = lazy.select(pl.nth(*wanted)).collect() if wanted else lazy.collect()
-    except (pl.exceptions.PolarsError, OSError) as exc:
+    except (pl.exceptions.PolarsError, OSError, PanicException) as exc:
+        # a panic of polars' reader (a damaged page it does not check) is a BaseException:
+        # caught by name here, it is the file's fault, one line
         raise UserError(f"{path}: not a readable Parquet or Arrow file ({one_line(exc)})"
                         ) from None
     if frame.height == 0:

@@ -152,6 +152,10 @@ def numbers(table: Table, i: int, label: str) -> np.ndarray:
     elif s.dtype.is_numeric() or s.dtype in (pl.Boolean, pl.Null):
         values = s.cast(pl.Float64)
         bad = pl.repeat(False, s.len(), eager=True)
+    elif s.dtype.is_nested():  # a list, array or struct per row: no cast gives one number
+        raise _error(str(table.path), f"{table.noun} {label!r} holds {s.dtype} values (a "
+                     "list or record per row); expected one number per row: flatten it "
+                     "(one column per element) or choose another column")
     else:
         values, bad = s.cast(pl.Float64, strict=False), s.is_not_null()
     out = np.asarray(values.fill_null(np.nan).to_numpy(), dtype=np.float64)
