@@ -7,6 +7,8 @@ from __future__ import annotations
 import os
 import stat
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from .errors import UserError
@@ -150,3 +152,26 @@ def refuse_input(target: Path, what: str, inputs: list[tuple[Path, str]]) -> Non
         if same_file(target, path):
             raise UserError(f"{target}: the {what} would replace {name} ({path}); give "
                             "another path")
+
+
+@contextmanager
+def locked(path: Path, what: str, wait: float, lost: str) -> Iterator[None]:
+    """An exclusive lock on ``NAME.lock`` beside ``path`` (filelock) while the block runs:
+    one run at a time reads, adds to and replaces ``what`` (a history, an output folder).
+    A lock another run holds for longer than ``wait`` seconds is one :class:`UserError`
+    saying so and what was not done (``lost``)."""
+    from filelock import FileLock, Timeout
+
+    lock = FileLock(str(path.parent / f"{path.name}.lock"), timeout=wait)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock.acquire()
+    except Timeout:
+        raise UserError(f"{path}: another run has held {what} for {wait:g} s; {lost}"
+                        ) from None
+    except OSError as exc:
+        raise UserError(f"{path}: cannot lock {what} ({exc.strerror or exc})") from None
+    try:
+        yield
+    finally:
+        lock.release()

@@ -375,3 +375,76 @@ def test_a_plots_link_is_never_written_through(tmp_path, run):
                               "--time", "time", "--out", str(out)])
     assert res.exit_code == 2 and "is a link" in res.output, res.output
     assert {p.name: p.read_bytes() for p in elsewhere.iterdir()} == before
+
+
+def _files(tag: str) -> dict[str, bytes]:
+    doc = {"schema_version": "3", "pipeline_version": "0", "config": tag}
+    return {"results.json": json.dumps(doc).encode(), "report.md": tag.encode(),
+            "report.html": tag.encode(), f"plots/{tag}.png": b"png"}
+
+
+@pytest.mark.parametrize("lock", [True, False])
+def test_two_runs_onto_one_folder_publish_in_turn(tmp_path, monkeypatch, lock):
+    """Run A's publish is slow (each move waits); run B publishes meanwhile. With the lock
+    B waits and the folder is B's alone; without it (the must-fail twin, the lock taken
+    away) the folder mixes the two runs, which is what the lock prevents."""
+    import threading
+    from contextlib import nullcontext
+
+    from pipeline.report import outdir
+
+    real_move, first_moved = outdir._move, threading.Event()
+
+    def slow_move(src, dst):
+        real_move(src, dst)
+        if "A" in threading.current_thread().name:
+            first_moved.set()
+            time.sleep(0.15)
+    monkeypatch.setattr(outdir, "_move", slow_move)
+    if not lock:
+        monkeypatch.setattr(outdir, "locked", lambda *a: nullcontext())
+    out = tmp_path / "out"
+    a = threading.Thread(target=outdir.publish, args=(out, _files("A")), name="A")
+    a.start()
+    assert first_moved.wait(10)
+    outdir.publish(out, _files("B"))
+    a.join(10)
+    tags = {(out / n).read_text() for n in ("report.md", "report.html")}
+    tags |= {json.loads((out / "results.json").read_text())["config"]}
+    tags |= {p.stem for p in (out / "plots").iterdir()}  # the plots a folder holds
+    assert not any(outdir.STAGING in p.name for p in out.iterdir())
+    assert tags == ({"B"} if lock else {"A", "B"})  # with the lock: A, then all of B
+
+
+def test_three_real_runs_onto_one_folder_leave_one_runs_report(tmp_path):
+    """Three ``pipeline run`` processes at once onto one ``--out``: each exits 0, and the
+    folder holds one run's results.json, report.md and report.html (each config names its
+    run; the reports carry the name in their title)."""
+    import subprocess
+    import sys
+
+    from pipeline.synth.logs import write_synthetic_logs
+
+    write_synthetic_logs(tmp_path / "logs", 2, seed=6, n_steps=2)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1]),
+           "MPLBACKEND": "Agg"}
+    procs = []
+    for k in range(3):
+        (tmp_path / f"night{k}.yaml").write_text(
+            f"name: night{k}\ndata: {{path: logs, input: u, output: y, time: time}}\n"
+            "methods: [first_order]\n")
+        procs.append(subprocess.Popen(
+            [sys.executable, "-m", "pipeline", "run", f"night{k}.yaml", "--out", "out",
+             "--workers", "1", "-q"], cwd=tmp_path, env=env, stderr=subprocess.PIPE))
+    for p in procs:
+        assert p.wait(timeout=120) == 0, p.stderr.read().decode()
+    out = tmp_path / "out"
+    run = json.loads((out / "results.json").read_text())["config"]
+    name = Path(run).stem
+    assert name in {"night0", "night1", "night2"}
+    for report in ("report.md", "report.html"):
+        text = (out / report).read_text()
+        assert f"System identification: {name}" in text
+        assert not any(f"System identification: night{k}" in text
+                       for k in range(3) if f"night{k}" != name)
+    assert not any(p.name.startswith(".pipeline.tmp-") for p in out.iterdir())

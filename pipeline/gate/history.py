@@ -25,15 +25,14 @@ from __future__ import annotations
 import io
 import math
 import os
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 
 import polars as pl
 
 from ..errors import UserError
-from ..files import refuse_special, through_link, write_atomic
+from ..files import locked, refuse_special, through_link, write_atomic
 from ..models import PARAMETERS
 from ..schema import MetricsDoc, ResultsDoc
 
@@ -115,7 +114,9 @@ def append_history(path: str | os.PathLike, results: ResultsDoc,
     at ``path`` (created with its folder when absent); returns the whole history."""
     p = through_link(Path(path), "history")  # one lock for every link to one file
     new = history_rows(results, run_time)
-    with _locked(p):  # read, add, replace: one run at a time, or rows are lost
+    # read, add, replace: one run at a time, or rows are lost (four runs appending at once
+    # kept 1 of 4 rows without it, issue 31)
+    with locked(p, "the history", LOCK_WAIT, "this run's rows were not added"):
         frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() \
             else new
         buf = io.BytesIO()
@@ -126,28 +127,6 @@ def append_history(path: str | os.PathLike, results: ResultsDoc,
 
 #: How long a run waits for another run's history append (seconds) before it says so.
 LOCK_WAIT = 120.0
-
-
-@contextmanager
-def _locked(path: Path) -> Iterator[None]:
-    """An exclusive lock on ``path``'s lock file (``NAME.lock`` beside it, filelock):
-    four runs appending at once kept 1 of 4 rows without it (issue 31). A history
-    another run holds for longer than :data:`LOCK_WAIT` is one :class:`UserError`."""
-    from filelock import FileLock, Timeout
-
-    lock = FileLock(str(path.parent / f"{path.name}.lock"), timeout=LOCK_WAIT)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        lock.acquire()
-    except Timeout:
-        raise UserError(f"{path}: another run has held the history for {LOCK_WAIT:g} s; "
-                        "this run's rows were not added") from None
-    except OSError as exc:
-        raise UserError(f"{path}: cannot lock the history ({exc.strerror or exc})") from None
-    try:
-        yield
-    finally:
-        lock.release()
 
 
 def load_history(path: str | os.PathLike) -> pl.DataFrame:

@@ -13,6 +13,8 @@
   folder no run wrote) are kept.
 * A staging folder left by a killed run names its host and process id; the next run on
   that host removes those whose process is gone.
+* Two runs onto one folder publish in turn (a lock file, ``.pipeline.lock``): the folder
+  always holds one run's files, never a mix.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ import time
 from pathlib import Path
 
 from ..errors import UserError
-from ..files import check_writable, default_mode
+from ..files import check_writable, default_mode, locked
 
 #: The fixed names a run writes; one an earlier run's manifest lists and this run does not
 #: write (report.md with ``markdown: false``) is removed, so the folder never mixes two
@@ -37,6 +39,10 @@ OWNED = ("results.json", "report.md", "report.html")
 #: The plots the last run wrote (a JSON list of ``plots/NAME.png``).
 MANIFEST = ".pipeline-outputs.json"
 STAGING = ".pipeline.tmp-"
+#: The lock a publish holds (``OUT/.pipeline.lock``): concurrent runs onto one folder
+#: publish in turn; one waits at most :data:`LOCK_WAIT` seconds for the other.
+LOCK = ".pipeline"
+LOCK_WAIT = 120.0
 _PLOT = re.compile(r"plots/[^/\\]+\.png")
 # mkdtemp's random part is [a-z0-9_]{8}: no dash, so the pid is the last dashed number
 _STALE = re.compile(re.escape(STAGING) + r"(?P<host>.+)-(?P<pid>\d+)-[a-z0-9_]+")
@@ -134,8 +140,16 @@ def publish(out_dir: Path, files: dict[str, bytes]) -> None:
     """Write ``files`` (relative name -> bytes; names are :data:`OWNED` or
     ``plots/NAME.png``) into ``out_dir``: staged inside it, then replaced one by one, plots
     first and ``report.html`` last. Raises ``OSError``; the staging folder never stays."""
-    order = sorted(files, key=lambda n: (n in OWNED, OWNED.index(n) if n in OWNED else 0))
     out_dir.mkdir(parents=True, exist_ok=True)
+    # two runs onto one folder publish one after the other: moved file by file, two
+    # interleaved publishes left one run's results.json beside the other's report
+    with locked(out_dir / LOCK, "the report folder", LOCK_WAIT,
+                "this run's reports were not written"):
+        _publish(out_dir, files)
+
+
+def _publish(out_dir: Path, files: dict[str, bytes]) -> None:
+    order = sorted(files, key=lambda n: (n in OWNED, OWNED.index(n) if n in OWNED else 0))
     link = plots_link(out_dir)  # made since check_target (a narrower race remains)
     if link:
         raise OSError(errno.ELOOP, link)
