@@ -102,3 +102,48 @@ def release() -> None:
     trim = _libc("malloc_trim")
     if trim is not None:
         trim(0)
+
+
+def available() -> int | None:
+    """Bytes this process may still allocate, as far as the system says: the least of
+    the memory available (``MemAvailable``, /proc/meminfo), the cgroup's limit less its
+    use (cgroup v2 ``memory.max``/``memory.current``) and the address-space limit less
+    the address space in use (``RLIMIT_AS``, ``VmSize``). None where none of them can be
+    read (another system). A reader that would abort past it (a native library's failed
+    allocation is not an exception) checks first."""
+    found = []
+    meminfo = _proc_fields("/proc/meminfo")
+    if "MemAvailable" in meminfo:
+        found.append(meminfo["MemAvailable"])
+    try:
+        limit = open("/sys/fs/cgroup/memory.max").read().strip()
+        if limit != "max":
+            used = int(open("/sys/fs/cgroup/memory.current").read())
+            found.append(max(0, int(limit) - used))
+    except (OSError, ValueError):
+        pass
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+        status = _proc_fields("/proc/self/status")
+        if soft != resource.RLIM_INFINITY and "VmSize" in status:
+            found.append(max(0, soft - status["VmSize"]))
+    except (ImportError, OSError, ValueError):
+        pass
+    return min(found) if found else None
+
+
+def _proc_fields(path: str) -> dict[str, int]:
+    """The ``Name: N kB`` lines of a /proc file, in bytes ({} when it cannot be read)."""
+    out = {}
+    try:
+        with open(path) as f:
+            for line in f:
+                name, _, rest = line.partition(":")
+                parts = rest.split()
+                if len(parts) == 2 and parts[1] == "kB" and parts[0].isdigit():
+                    out[name] = int(parts[0]) * 1024
+    except OSError:
+        pass
+    return out
