@@ -122,3 +122,41 @@ def test_crashed_and_is_failure():
     assert '"status": "failed"' in results_json(
         __import__("pipeline.results").results.RunResult([res]).to_doc())
     assert crashed("plain", KeyError("k")).name == "plain"
+
+
+@pytest.mark.parametrize("answer", [b"", b"HTTP/1.0 200 OK\r\n\r\n" + b"\xff" * 64])
+def test_a_port_that_never_answers_as_a_scheduler_is_one_error(answer):
+    """A port that accepts and stays silent (or answers something else) is a UserError
+    within the timeout, not a wait for ever (issue 31: still running at 100 s)."""
+    import socket
+    import threading
+    import time
+
+    from distributed import Client
+
+    from pipeline.batch.pool import _connect
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if answer:
+                conn.sendall(answer)
+    threading.Thread(target=serve, daemon=True).start()
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(UserError, match="cannot reach the Dask scheduler at tcp://127"):
+            _connect(Client, f"tcp://127.0.0.1:{server.getsockname()[1]}", timeout=1.0)
+    finally:
+        server.close()
+        for c in held:
+            c.close()
+    assert time.monotonic() - t0 < 10

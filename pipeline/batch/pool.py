@@ -38,6 +38,7 @@ import logging
 import multiprocessing
 import os
 import socket
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -499,6 +500,41 @@ def probe_scheduler(address: str, timeout: float = 5.0) -> None:
                         f"{exc.strerror or exc}") from None
 
 
+#: Seconds a scheduler has to answer once it has accepted the connection.
+CONNECT_TIMEOUT = 20.0
+
+
+def _connect(client_type, scheduler: str, timeout: float = CONNECT_TIMEOUT):
+    """``Client(scheduler)``, or a :class:`UserError` within ``timeout`` seconds (and a
+    few more): a port that accepts connections and never answers (or answers HTTP) kept
+    ``Client(..., timeout="20s")`` waiting for ever (issue 31: still running at 100 s).
+    The attempt runs in a daemon thread; one that never returns is left behind, and the
+    command ends with its error."""
+    box: dict = {}
+
+    def connect() -> None:
+        try:
+            box["client"] = client_type(scheduler, timeout=f"{timeout:g}s")
+        except BaseException as exc:  # MemoryError too: a peer's bytes read as a length
+            box["error"] = exc
+
+    thread = threading.Thread(target=connect, name="dask-connect", daemon=True)
+    thread.start()
+    thread.join(timeout + min(5.0, timeout))  # Client's own timeout first, if it keeps it
+    if thread.is_alive():
+        raise UserError(f"cannot reach the Dask scheduler at {scheduler}: the port accepted "
+                        f"the connection but nothing answered as a Dask scheduler within "
+                        f"{timeout:g} s; check the address: it is the tcp://HOST:PORT "
+                        "`dask scheduler` prints")
+    if "error" in box:
+        exc = box["error"]
+        if not isinstance(exc, Exception):
+            raise exc
+        raise UserError(" ".join(f"cannot reach the Dask scheduler at {scheduler}: "
+                                 f"{type(exc).__name__}: {exc}".split())[:300]) from None
+    return box["client"]
+
+
 def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracker) -> list:
     try:
         from distributed import Client
@@ -507,11 +543,9 @@ def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracke
         raise UserError(f"the dask executor needs dask.distributed; {DASK_HINT}") from None
     if scheduler:
         probe_scheduler(scheduler)
-    try:
-        client = Client(scheduler, timeout="20s") if scheduler else Client()
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise UserError(f"cannot reach the Dask scheduler at {scheduler}: "
-                        f"{type(exc).__name__}: {exc}") from None
+        client = _connect(Client, scheduler)
+    else:
+        client = Client()
     with client:
         cfg_future = client.scatter(cfg, broadcast=True)
         futures = client.map(timed, [job] * len(specs), specs, cfg=cfg_future, pure=False)
