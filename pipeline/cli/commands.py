@@ -62,8 +62,39 @@ def handled(command):
         except StdoutError as exc:
             report_stdout_failure(exc)
             raise typer.Exit(ExitCode.USER_ERROR) from None
+        except (MemoryError, ImportError, OSError) as exc:
+            if not out_of_memory(exc):
+                raise
+            error_line(memory_message(exc))
+            raise typer.Exit(ExitCode.USER_ERROR) from None
 
     return wrapper
+
+
+def out_of_memory(exc: BaseException) -> bool:
+    """Whether ``exc`` says the process ran out of memory: a MemoryError, an OSError
+    ENOMEM, or a native module that could not be mapped (``failed to map segment``: an
+    import under an address-space limit, issue 31)."""
+    import errno
+
+    if isinstance(exc, MemoryError):
+        return True
+    if isinstance(exc, OSError) and exc.errno == errno.ENOMEM:
+        return True
+    text = str(exc).lower()
+    return isinstance(exc, ImportError | OSError) and (
+        "failed to map segment" in text or "cannot allocate memory" in text)
+
+
+def memory_message(exc: BaseException) -> str:
+    """One line for :func:`out_of_memory`: what failed and how much memory was left."""
+    from ..memory import available
+
+    free = available()
+    left = f"; {free / 2**20:.0f} MB is left to this process" if free is not None else ""
+    what = " ".join(f"{type(exc).__name__}: {exc}".split())[:160]
+    return (f"out of memory ({what}){left}; give the command more memory (its ulimit or "
+            "container limit), or split the log")
 
 
 
