@@ -2,13 +2,15 @@
 is the command's own, so polars' allocator is set up first (:func:`pipeline.memory.
 polars_returns_freed_pages`, before anything imports polars; pool workers inherit it), and
 glibc's mmap threshold fixed (:func:`pipeline.memory.large_arrays_mapped`), and one
-native BLAS thread (:func:`pipeline.threads.one_native_thread`)."""
+native BLAS thread (:func:`pipeline.threads.one_native_thread`); a closed stdout or stderr
+is held on /dev/null before anything opens a file (:func:`_hold_closed_streams`)."""
 
 from .memory import large_arrays_mapped, polars_returns_freed_pages
 from .threads import one_native_thread
 
 
 def main() -> None:
+    _hold_closed_streams()
     polars_returns_freed_pages()
     large_arrays_mapped()
     one_native_thread()
@@ -24,6 +26,24 @@ def main() -> None:
     except SystemExit as exc:
         _exit_now_if_interrupted(exc.code)
         raise
+
+
+def _hold_closed_streams() -> None:
+    """Descriptors 1 and 2, when the command was started with them closed (``>&-``),
+    opened on /dev/null before anything else opens a file: the next file opened would get
+    the number, and whatever writes to the stream (a library's C code too) would write into
+    it (a report, a user's log). ``sys.stdout`` stays None, which the command line turns
+    into an error at the first write (:func:`pipeline.cli.guard_stdout`)."""
+    import os
+
+    for fd in (1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            if devnull != fd:  # 1 closed and 2 open: the lowest free number is 1 itself
+                os.dup2(devnull, fd)
+                os.close(devnull)
 
 
 def _exit_now_if_interrupted(code) -> None:

@@ -4,6 +4,7 @@ and the ranking ``identify`` prints (:func:`print_ranking`)."""
 
 from __future__ import annotations
 
+import errno
 import sys
 from typing import Annotated
 
@@ -62,10 +63,42 @@ class _GuardedStdout:
         return getattr(self._stream, name)
 
 
+class _ClosedStdout:
+    """``sys.stdout`` when the command was started with it closed (``>&-``): every write
+    is a :class:`StdoutError` (the output has nowhere to go: one line and exit 2, not
+    an AttributeError on None or a silent exit 0); flushing nothing is no error."""
+
+    encoding = "utf-8"
+
+    def write(self, text):
+        if text:
+            raise StdoutError(errno.EBADF, "it is closed (started with >&-); redirect it to "
+                              "a file or /dev/null instead")
+        return 0
+
+    def flush(self):
+        return None
+
+    def isatty(self):
+        return False
+
+    def fileno(self):
+        return 1
+
+
 def guard_stdout() -> None:
     """Wrap ``sys.stdout`` (the ``pipeline`` command does, first thing) so a failed write
-    to it is a :class:`StdoutError`."""
-    if sys.stdout is not None and not isinstance(sys.stdout, _GuardedStdout):
+    to it is a :class:`StdoutError`; a stdout the command was started without (closed:
+    ``None``) fails each write (:class:`_ClosedStdout`), a missing stderr writes to
+    /dev/null. (The command's entry point holds the closed descriptors on /dev/null
+    before anything opens a file: ``pipeline.__main__``.)"""
+    import os
+
+    if sys.stderr is None:
+        sys.stderr = open(os.devnull, "w", encoding="utf-8")  # noqa: SIM115 - for life
+    if sys.stdout is None:
+        sys.stdout = _ClosedStdout()
+    elif not isinstance(sys.stdout, _GuardedStdout | _ClosedStdout):
         sys.stdout = _GuardedStdout(sys.stdout)
 
 
