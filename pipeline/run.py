@@ -277,13 +277,24 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
     extras = report.Extras(comparison, _history_figures(doc, plan, run_time, stages))
 
     def finish() -> None:  # after the report: --history/--junit may point into the folder
+        written, left = [f"the reports in {plan.target}"], []
         if history is not None:
-            stages.step("history")
-            append_history(history, doc, run_time)
+            left.append(f"the history row in {history}")
         if junit is not None:
-            stages.step("JUnit")
-            report.write_junit(junit, doc, comparison, time=time.perf_counter() - started,
-                               times=fit_times(records))
+            left.append(f"the JUnit file {junit}")
+        try:
+            if history is not None:
+                stages.step("history")
+                append_history(history, doc, run_time)
+                written.append(left.pop(0))
+            if junit is not None:
+                stages.step("JUnit")
+                report.write_junit(junit, doc, comparison, time=time.perf_counter() - started,
+                                   times=fit_times(records))
+                written.append(left.pop(0))
+        except UserError as exc:  # say exactly what this run did and did not write
+            raise UserError(f"{exc.message}; written: {', '.join(written)}; not written: "
+                            f"{', '.join(left)}") from None
 
     # nothing to draw: the sections are tables, built here; else the batch's pool draws
     stages.step("report sections", total=len(records))
