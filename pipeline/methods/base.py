@@ -151,9 +151,27 @@ def undershoot(ev: EventData) -> dict | None:
         return None
     j = i0 + int(np.argmin(hs[i0:stop]))
     depth = -float(hs[j])
-    if depth <= max(UNDERSHOOT_MIN, 5 * sigma / np.sqrt(w)):
+    if depth <= max(UNDERSHOOT_MIN, 5 * sigma / np.sqrt(w), _smoothed_wander(hs[:i0], w)):
         return None
     return {"depth": depth, "t": float(ev.t[j] - ev.t0)}
+
+
+#: Standard deviations of the averaged baseline's wander a dip must exceed.
+WANDER_SIGMAS = 4.0
+
+
+def _smoothed_wander(base: np.ndarray, w: int) -> float:
+    """:data:`WANDER_SIGMAS` times the scatter of the ``w``-sample moving average over the
+    baseline before t0, about its straight line (0 when the baseline is shorter than
+    ``3 w``). ``sigma / sqrt(w)`` is that scatter for white noise only: averaging slow
+    (AR(1), 1/f) noise takes much less of it away (AR(1) phi 0.9 over 7 samples: 2.3
+    times ``sigma / sqrt(w)`` measured on a baseline), and its wander after a step read
+    as an inverse response on right models (issue 27 item 4)."""
+    if w <= 1 or base.size < 3 * w:
+        return 0.0
+    x = np.arange(base.size, dtype=np.float64)
+    line = np.polyval(np.polyfit(x, base, 1), x)
+    return WANDER_SIGMAS * float(np.std(base - line))
 
 
 @per_event
