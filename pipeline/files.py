@@ -155,16 +155,19 @@ def refuse_input(target: Path, what: str, inputs: list[tuple[Path, str]]) -> Non
 
 
 @contextmanager
-def locked(path: Path, what: str, wait: float, lost: str) -> Iterator[None]:
-    """An exclusive lock on ``NAME.lock`` beside ``path`` (filelock) while the block runs:
-    one run at a time reads, adds to and replaces ``what`` (a history, an output folder).
-    A lock another run holds for longer than ``wait`` seconds is one :class:`UserError`
-    saying so and what was not done (``lost``)."""
+def locked(path: Path, what: str, wait: float, lost: str, *,
+           lock_file: Path | None = None) -> Iterator[None]:
+    """An exclusive lock on ``lock_file`` (default ``NAME.lock`` beside ``path``; filelock)
+    while the block runs: one run at a time reads, adds to and replaces ``what`` at
+    ``path`` (a history, an output folder). A lock another run holds for longer than
+    ``wait`` seconds is one :class:`UserError` naming ``path``, saying so and what was not
+    done (``lost``)."""
     from filelock import FileLock, Timeout
 
-    lock = FileLock(str(path.parent / f"{path.name}.lock"), timeout=wait)
+    lock_file = lock_file or path.parent / f"{path.name}.lock"
+    lock = FileLock(str(lock_file), timeout=wait)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        lock_file.parent.mkdir(parents=True, exist_ok=True)
         lock.acquire()
     except Timeout:
         raise UserError(f"{path}: another run has held {what} for {wait:g} s; {lost}"

@@ -78,7 +78,8 @@ def test_a_panicking_record_fails_alone(tmp_path, workers):
     got = run_records(resolve_specs(cfg), cfg, panicking_job, workers=workers,
                       progress=False)
     assert [r.error is None for r in got] == [True, False, True]
-    assert "processing crashed" in got[1].error
+    assert "processing crashed" in got[1].error and "PanicException" in got[1].error
+    assert "Pickl" not in got[1].error  # from a worker too: sent as a RuntimeError
 
 
 def test_what_is_a_records_fault():

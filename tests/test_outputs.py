@@ -402,7 +402,7 @@ def test_two_runs_onto_one_folder_publish_in_turn(tmp_path, monkeypatch, lock):
             time.sleep(0.15)
     monkeypatch.setattr(outdir, "_move", slow_move)
     if not lock:
-        monkeypatch.setattr(outdir, "locked", lambda *a: nullcontext())
+        monkeypatch.setattr(outdir, "locked", lambda *a, **k: nullcontext())
     out = tmp_path / "out"
     a = threading.Thread(target=outdir.publish, args=(out, _files("A")), name="A")
     a.start()

@@ -128,9 +128,21 @@ def _worker_init(owner: int) -> None:
 
 
 def timed(job: Job, spec, cfg) -> tuple[Any, float]:
-    """``(job(spec, cfg), seconds)``: what a worker sends back (module-level: picklable)."""
+    """``(job(spec, cfg), seconds)``: what a worker sends back (module-level: picklable).
+    A native panic is sent as a RuntimeError (:func:`portable`)."""
     t0 = time.perf_counter()
-    return job(spec, cfg), time.perf_counter() - t0
+    try:
+        return job(spec, cfg), time.perf_counter() - t0
+    except BaseException as exc:
+        raise portable(exc) from None
+
+
+def portable(exc: BaseException) -> BaseException:
+    """``exc``, or for a native library's panic (pyo3's ``PanicException``, which cannot be
+    pickled: the parent would get a PicklingError instead) a RuntimeError saying it."""
+    if type(exc).__name__ == "PanicException":
+        return RuntimeError(f"PanicException: {exc}")
+    return exc
 
 
 # -- executors ---------------------------------------------------------------------------
@@ -225,12 +237,17 @@ class LazyPool:
     def map(self, fn: Callable[[Any], Any], items: Sequence) -> list:
         items = list(items)
         if self._broken:  # a worker died earlier: the rest of the record runs here
-            return [fn(x) for x in items]
+            return [_portably((fn, x)) for x in items]
         if self._pool is None:
             self._pool = ProcessPoolExecutor(
                 max_workers=self.size, mp_context=pool_context(), initializer=_worker_init,
                 initargs=(os.getpid(),))
-        out, self._broken = _steal_map(self._pool, self.size, fn, items)
+        try:
+            out, self._broken = _steal_map(self._pool, self.size, _portably,
+                                           [(fn, x) for x in items])
+        except BaseException:  # a task raised: its siblings' work is of no use now
+            self.close(cancel=True)
+            raise
         return out
 
     def close(self, *, cancel: bool = False) -> None:
@@ -337,9 +354,9 @@ def _run_pool(specs: list, cfg, job: Job, pool: ProcessPoolExecutor, tracker: Tr
     per-record jobs).
 
     When a worker dies (the OOM killer), the pool breaks and every record in it fails
-    with it: those are run again, each in a worker of its own (:func:`_run_isolated`), so
-    only a record that kills its worker again fails; the records not yet sent go to a
-    fresh pool.
+    with it: those (and one the broken pool refused to take) are run again, each in a
+    worker of its own (:func:`_run_isolated`), so only a record that kills its worker
+    again fails; the records not yet sent go to a fresh pool.
     """
     size = max(1, getattr(pool, "_max_workers", 1))
     out: list = [None] * len(specs)
@@ -410,7 +427,7 @@ def _run_isolated(indices: list[int], specs: list, cfg, job: Job, out: list,
                 active[ex.submit(timed, job, specs[i], cfg)] = (i, ex)
             done, _ = wait(active, return_when=FIRST_COMPLETED)
             for fut in done:
-                i, ex = active.pop(fut)
+                i, ex = active[fut]
                 try:
                     out[i], seconds = fut.result()
                 except BrokenProcessPool:
@@ -420,6 +437,7 @@ def _run_isolated(indices: list[int], specs: list, cfg, job: Job, out: list,
                         raise
                     out[i], seconds = crashed(specs[i], exc), None
                 ex.shutdown(wait=True)
+                del active[fut]
                 tracker.done(out[i], seconds)
     except BaseException:
         for _, ex in active.values():
@@ -453,28 +471,35 @@ def is_broken(pool: ProcessPoolExecutor) -> bool:
 @contextlib.contextmanager
 def parallel_map(pool: ProcessPoolExecutor | None, n_items: int, min_items: int = 8):
     """A ``map`` for pure, picklable per-record work (e.g. a record's report section):
-    ``pool``'s ``map`` (the batch's pool, used again) when there is one, it is whole and
-    there are enough items, else the built-in ``map`` in this process. If a worker dies
-    meanwhile, the items it did not return are computed here (a warning says so): a dead
-    worker never costs the report."""
+    on ``pool`` (the batch's pool, used again) when there is one, it is whole and there
+    are enough items, else the built-in ``map`` in this process. On the pool the items go
+    out as :func:`_steal_map` sends them (nothing cancelled); if a worker dies meanwhile,
+    the items it did not return are made here (a warning says so): a dead worker never
+    costs the report."""
     if pool is None or n_items < min_items or is_broken(pool):
         yield map
         return
     n = max(1, getattr(pool, "_max_workers", 1))
 
     def robust(f, *its):
-        items = list(zip(*its, strict=True))
-        done = 0
-        try:
-            for r in pool.map(f, *its, chunksize=max(1, n_items // (4 * n))):
-                yield r
-                done += 1
-        except BrokenProcessPool:
-            log.warning("a worker process died; the last %d item(s) are made in the main "
-                        "process", len(items) - done)
-            for args in items[done:]:
-                yield f(*args)
+        return _steal_map(pool, n, _apply, [(f, args) for args in zip(*its, strict=True)])[0]
     yield robust
+
+
+def _portably(task: tuple[Callable, Any]) -> Any:
+    """``fn(x)`` for ``task = (fn, x)``, a native panic raised as :func:`portable` makes
+    it (:class:`LazyPool`'s tasks, in a worker or here alike)."""
+    fn, x = task
+    try:
+        return fn(x)
+    except BaseException as exc:
+        raise portable(exc) from None
+
+
+def _apply(task: tuple[Callable, tuple]) -> Any:
+    """``f(*args)`` for ``task = (f, args)`` (:func:`parallel_map`'s pool tasks)."""
+    f, args = task
+    return f(*args)
 
 
 def probe_scheduler(address: str, timeout: float = 5.0) -> None:

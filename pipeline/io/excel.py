@@ -95,7 +95,9 @@ def _refuse_oversized(path: Path) -> None:
     """A :class:`UserError` for a workbook that expands like a zip bomb, or whose XML needs
     more memory to read than the process has (:func:`pipeline.memory.available`): the
     reader (Rust) aborts the whole process on a failed allocation, which no exception
-    handler sees. An unreadable package is left to the reader, which says so."""
+    handler sees. The sizes are those the package's directory declares: a crafted file
+    can understate them, which this check does not see. An unreadable package is left to
+    the reader, which says so."""
     try:
         with zipfile.ZipFile(path) as z:
             parts = z.infolist()
@@ -108,7 +110,11 @@ def _refuse_oversized(path: Path) -> None:
                 f"{_mb(p.file_size)} ({p.file_size / max(p.compress_size, 1):.0f} times, where "
                 "a sheet of numbers compresses 5 to 10 times): a zip bomb or a damaged "
                 "workbook, not read")
-    xml = sum(p.file_size for p in parts)
+    # what the reader holds: one sheet (the largest, not knowing yet which is read) and the
+    # shared strings; other parts (styles, media) are not read into cells
+    sheets = [p.file_size for p in parts if p.filename.startswith("xl/worksheets/")]
+    xml = max(sheets, default=0) + sum(p.file_size for p in parts
+                                       if p.filename == "xl/sharedStrings.xml")
     free = memory.available()
     if free is not None and READ_FACTOR * xml > free:
         raise UserError(f"{path}: reading it needs about {_mb(READ_FACTOR * xml)} of memory "

@@ -132,7 +132,8 @@ def refuse_moving_start(ev: EventData) -> None:
 def undershoot(ev: EventData) -> dict | None:
     """The wrong-way excursion of a step response before it first reaches half its
     change: ``{"depth", "t"}`` (depth a positive fraction of the change, time since t0),
-    or None when it is within ``max(UNDERSHOOT_MIN, 5 sigma/sqrt(w))``.
+    or None when it is within ``max(UNDERSHOOT_MIN, 5 sigma/sqrt(w))`` or within the
+    averaged baseline's own wander (:func:`_smoothed_wander`: slow noise).
 
     The fractional response from the baseline on is averaged over a moving window of
     ``w`` samples (2 % of the event, at least 5; only when there is noise): an average
@@ -151,7 +152,9 @@ def undershoot(ev: EventData) -> dict | None:
         return None
     j = i0 + int(np.argmin(hs[i0:stop]))
     depth = -float(hs[j])
-    if depth <= max(UNDERSHOOT_MIN, 5 * sigma / np.sqrt(w), _smoothed_wander(hs[:i0], w)):
+    # the baseline's average ends half a window before t0: later ones hold the response
+    base = hs[:max(0, i0 - w // 2)]
+    if depth <= max(UNDERSHOOT_MIN, 5 * sigma / np.sqrt(w), _smoothed_wander(base, w)):
         return None
     return {"depth": depth, "t": float(ev.t[j] - ev.t0)}
 

@@ -20,7 +20,7 @@ from ..grading import FLAGS
 from ..results import RunResult, results_json
 from ..schema import ResultsDoc
 from .markdown import finalize, finalize_html, md_code, md_text
-from .outdir import check_target, publish
+from .outdir import check_target, folder_lock, publish
 from .regressions import mark_summary, regression_section
 from .sections import FOLD_ROWS, collector, record_section, slug
 from .tables import record_verdict, summary_table
@@ -141,8 +141,10 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
     if html:
         outputs["report.html"] = page.encode("utf-8")
     try:
-        with deferred():  # SIGTERM waits for the writes and renames: never half a report
-            publish(out_dir, outputs)
+        # the folder's lock is waited for before signals are held: a run waiting for
+        # another's publish stops at once on SIGTERM
+        with folder_lock(out_dir), deferred():  # never half a report
+            publish(out_dir, outputs, lock=False)
             if then is not None:
                 then()
     except OSError as exc:

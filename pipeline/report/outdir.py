@@ -39,9 +39,9 @@ OWNED = ("results.json", "report.md", "report.html")
 #: The plots the last run wrote (a JSON list of ``plots/NAME.png``).
 MANIFEST = ".pipeline-outputs.json"
 STAGING = ".pipeline.tmp-"
-#: The lock a publish holds (``OUT/.pipeline.lock``): concurrent runs onto one folder
+#: The lock a publish holds (:func:`folder_lock`): concurrent runs onto one folder
 #: publish in turn; one waits at most :data:`LOCK_WAIT` seconds for the other.
-LOCK = ".pipeline"
+LOCK = ".pipeline.lock"
 LOCK_WAIT = 120.0
 _PLOT = re.compile(r"plots/[^/\\]+\.png")
 # mkdtemp's random part is [a-z0-9_]{8}: no dash, so the pid is the last dashed number
@@ -136,15 +136,25 @@ def _previous_outputs(out_dir: Path) -> set[str]:
     return listed if listed & set(OWNED) else listed | set(OWNED)
 
 
-def publish(out_dir: Path, files: dict[str, bytes]) -> None:
+def folder_lock(out_dir: Path):
+    """The lock two runs onto one folder publish under, one after the other (moved file
+    by file, two interleaved publishes left one run's results.json beside the other's
+    report): ``OUT/.pipeline.lock``, waited for at most :data:`LOCK_WAIT` seconds."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return locked(out_dir, "the report folder", LOCK_WAIT,
+                  "this run's reports were not written", lock_file=out_dir / LOCK)
+
+
+def publish(out_dir: Path, files: dict[str, bytes], *, lock: bool = True) -> None:
     """Write ``files`` (relative name -> bytes; names are :data:`OWNED` or
     ``plots/NAME.png``) into ``out_dir``: staged inside it, then replaced one by one, plots
-    first and ``report.html`` last. Raises ``OSError``; the staging folder never stays."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    # two runs onto one folder publish one after the other: moved file by file, two
-    # interleaved publishes left one run's results.json beside the other's report
-    with locked(out_dir / LOCK, "the report folder", LOCK_WAIT,
-                "this run's reports were not written"):
+    first and ``report.html`` last, under :func:`folder_lock` (``lock=False``: the caller
+    holds it). Raises ``OSError``; the staging folder never stays."""
+    if lock:
+        with folder_lock(out_dir):
+            _publish(out_dir, files)
+    else:
+        out_dir.mkdir(parents=True, exist_ok=True)
         _publish(out_dir, files)
 
 
