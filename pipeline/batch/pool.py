@@ -278,48 +278,75 @@ def lazy_pool(workers: int | None) -> Iterator[LazyPool | None]:
 
 def _steal_map(pool: ProcessPoolExecutor, size: int, fn: Callable[[Any], Any], items: list
                ) -> tuple[list, bool]:
-    """``([fn(x) for x in items], broken)`` on ``pool``: at most ``size + 1`` items in the
-    pool at a time, while this process runs the last queued ones until a worker has
-    returned one. When a worker dies (``broken``), what the pool had not returned is run
-    here, and a warning says so. (Nothing is ever cancelled: Python 3.11's pool raises
-    in its own thread when it breaks with cancelled futures still listed.)"""
+    """``([fn(x) for x in items], broken)`` on ``pool`` (:func:`_drive`). When a worker
+    dies (``broken``), what the pool had not returned is run here, and a warning says
+    so."""
     out: list = [None] * len(items)
-    queue = collections.deque(range(len(items)))
-    running: dict[Future, int] = {}
-    returned = broken = False
-    while queue or running:
+
+    def here(k: int) -> None:
+        out[k] = fn(items[k])
+
+    def done(k: int, fut: Future) -> bool:
         try:
-            while queue and len(running) <= size:
-                k = queue.popleft()
-                running[pool.submit(fn, items[k])] = k
+            out[k] = fut.result()
         except BrokenProcessPool:
-            queue.appendleft(k)
-            broken = True
-        if broken:
-            break
-        if queue and not returned:  # the workers are starting: this process takes a part
-            k = queue.pop()
-            out[k] = fn(items[k])
-            returned = any(f.done() for f in running)
-            continue
-        done, _ = wait(running, return_when=FIRST_COMPLETED)
-        returned = True
-        for f in done:
-            k = running.pop(f)
-            try:
-                out[k] = f.result()
-            except BrokenProcessPool:
-                running[f] = k
-                broken = True
-        if broken:
-            break
-    if broken:
-        lost = sorted([*running.values(), *queue])
+            return False
+        return True
+
+    in_flight, unsent = _drive(pool, size, len(items), lambda k: pool.submit(fn, items[k]),
+                               here, done)
+    lost = sorted(in_flight + unsent)
+    if lost:
         log.warning("a worker process died; %d of %d parts of a record's fits are computed "
                     "in the main process instead", len(lost), len(items))
         for k in lost:
-            out[k] = fn(items[k])
-    return out, broken
+            here(k)
+    return out, bool(lost)
+
+
+def _drive(pool: ProcessPoolExecutor, size: int, n: int, send: Callable[[int], Future],
+           here: Callable[[int], None], done: Callable[[int, Future], bool]
+           ) -> tuple[list[int], list[int]]:
+    """The scheduling both pools share. Items ``0..n-1`` are sent with ``send(k)``, at most
+    ``size + 1`` in the pool at a time; while no worker has returned one (they are still
+    starting), this process takes the last queued ones itself (``here(k)``); each item the
+    pool finishes goes to ``done(k, future)``, which says False when the pool broke.
+    Nothing is ever cancelled: Python 3.11's pool raises in its own thread (and leaves
+    futures unset) when it breaks with a cancelled future in its books.
+
+    Returns ``(in_flight, unsent)`` when the pool broke: the items it held (finished ones
+    excepted) and the ones never sent; ``([], [])`` when every item was done."""
+    queue = collections.deque(range(n))
+    running: dict[Future, int] = {}
+    returned = False
+    while queue or running:
+        try:
+            while queue and len(running) <= size:
+                running[send(queue[0])] = queue[0]
+                queue.popleft()
+        except BrokenProcessPool:
+            return _salvaged(running, done), list(queue)
+        if queue and not returned:
+            here(queue.pop())
+            returned = any(f.done() for f in running)
+            continue
+        finished, _ = wait(running, return_when=FIRST_COMPLETED)
+        returned = True
+        for fut in finished:
+            k = running.pop(fut)
+            if not done(k, fut):
+                return [k, *_salvaged(running, done)], list(queue)
+    return [], []
+
+
+def _salvaged(running: dict[Future, int], done: Callable[[int, Future], bool]) -> list[int]:
+    """After a break: the items of ``running`` that did not finish (those that did go to
+    ``done``)."""
+    lost = []
+    for fut, k in running.items():
+        if not (fut.done() and fut.exception() is None and done(k, fut)):
+            lost.append(k)
+    return lost
 
 
 def terminate(pool: ProcessPoolExecutor) -> None:
@@ -360,54 +387,40 @@ def _run_pool(specs: list, cfg, job: Job, pool: ProcessPoolExecutor, tracker: Tr
     """
     size = max(1, getattr(pool, "_max_workers", 1))
     out: list = [None] * len(specs)
-    queue = collections.deque(range(len(specs)))
-    running: dict[Future, int] = {}
-    returned = False
-    lost: list[int] = []
-    while queue or running:
-        while queue and len(running) <= size and not lost:
-            i = queue.popleft()
-            try:
-                running[pool.submit(timed, job, specs[i], cfg)] = i
-            except BrokenProcessPool:
-                lost.append(i)
-        if lost and not running:
-            break
-        if queue and not returned and not lost:  # the workers are starting: take one here
-            i = queue.pop()
-            out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
-            returned = any(f.done() for f in running)
-            continue
-        done, _ = wait(running, return_when=FIRST_COMPLETED)
-        returned = True
-        for fut in done:
-            i = running.pop(fut)
-            try:
-                out[i], seconds = fut.result()
-            except BrokenProcessPool:
-                lost.append(i)
-                continue
-            except BaseException as exc:  # the job raised: its contract is broken
-                if not record_fault(exc):
-                    raise
-                out[i], seconds = crashed(specs[i], exc), None
-            tracker.done(out[i], seconds)
+
+    def here(i: int) -> None:
+        out[i] = _run_inline([specs[i]], cfg, job, tracker)[0]
+
+    def done(i: int, fut: Future) -> bool:
+        try:
+            out[i], seconds = fut.result()
+        except BrokenProcessPool:
+            return False
+        except BaseException as exc:  # the job raised: its contract is broken
+            if not record_fault(exc):
+                raise
+            out[i], seconds = crashed(specs[i], exc), None
+        tracker.done(out[i], seconds)
+        return True
+
+    lost, queue = _drive(pool, size, len(specs),
+                         lambda i: pool.submit(timed, job, specs[i], cfg), here, done)
     if lost:
         log.warning("a worker process died; the %d record(s) it took with it are run "
                     "again, each in a worker of its own", len(lost))
         _run_isolated(sorted(lost), specs, cfg, job, out, tracker, size)
-        if queue:  # never sent: a fresh pool, as before the death
-            rest = sorted(queue)
-            fresh = ProcessPoolExecutor(max_workers=size, mp_context=pool_context(),
-                                        initializer=_worker_init, initargs=(os.getpid(),))
-            try:
-                done = _run_pool([specs[i] for i in rest], cfg, job, fresh, tracker)
-            except BaseException:
-                terminate(fresh)
-                raise
-            fresh.shutdown(wait=True)
-            for i, r in zip(rest, done, strict=True):
-                out[i] = r
+    if queue:  # never sent (the pool broke): a fresh pool, as before the death
+        rest = sorted(queue)
+        fresh = ProcessPoolExecutor(max_workers=size, mp_context=pool_context(),
+                                    initializer=_worker_init, initargs=(os.getpid(),))
+        try:
+            results = _run_pool([specs[i] for i in rest], cfg, job, fresh, tracker)
+        except BaseException:
+            terminate(fresh)
+            raise
+        fresh.shutdown(wait=True)
+        for i, r in zip(rest, results, strict=True):
+            out[i] = r
     return out
 
 
