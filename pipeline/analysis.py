@@ -70,9 +70,10 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
 
     A record that cannot be analysed (no event, a missing identification event) comes
     back with ``error`` set; a method that does not apply gives a ``not_applicable`` fit.
-    ``workers``: processes for the independent fits of a long record (each event's
+    ``workers``: processes for the independent work of a long record (each event's
     methods, each refinement over all events, the held-out errors, the per-step
-    consistency: :mod:`pipeline.parallel`); the result is the same without them.
+    consistency, the grading: :mod:`pipeline.parallel`); the result is the same without
+    them.
     """
     opt = options or AnalysisOptions()
     record = without_outliers(record)  # a glitch is named (outlier_samples), not fitted

@@ -134,7 +134,7 @@ def test_a_port_that_never_answers_as_a_scheduler_is_one_error(answer):
 
     from distributed import Client
 
-    from pipeline.batch.pool import _connect
+    from pipeline.batch.cluster import connect
 
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
@@ -154,7 +154,7 @@ def test_a_port_that_never_answers_as_a_scheduler_is_one_error(answer):
     t0 = time.monotonic()
     try:
         with pytest.raises(UserError, match="cannot reach the Dask scheduler at tcp://127"):
-            _connect(Client, f"tcp://127.0.0.1:{server.getsockname()[1]}", timeout=1.0)
+            connect(Client, f"tcp://127.0.0.1:{server.getsockname()[1]}", timeout=1.0)
     finally:
         server.close()
         for c in held:

@@ -1,7 +1,8 @@
 """Batch runs: many records in a process pool (or on Dask), their progress, and the
 interrupts that stop a run without losing its work.
 
-- :mod:`.pool` - the records of a run in worker processes (or a Dask cluster), in order;
+- :mod:`.pool` - the records of a run in worker processes, in order; :mod:`.cluster` - on
+  a Dask cluster;
 - :mod:`.progress` - the stage lines and the progress bar;
 - :mod:`.interrupt` - Ctrl-C and SIGTERM: a run stops between records, a report is
   never half written (:func:`deferred`);

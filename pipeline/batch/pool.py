@@ -37,8 +37,6 @@ import contextlib
 import logging
 import multiprocessing
 import os
-import socket
-import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -47,14 +45,12 @@ from contextlib import contextmanager
 from typing import Any
 
 from ..errors import UserError
-from ..results import RecordResult
 from .interrupt import guard_worker, interruption, output_detached
+from .jobs import Job, crashed, died, portable, record_fault, timed
 from .progress import Tracker, show_progress
 
 EXECUTORS = ("local", "dask")
-DASK_HINT = "install the dask extra: pip install .[dask]"
 
-Job = Callable[[Any, Any], Any]
 log = logging.getLogger(__name__)
 
 
@@ -74,7 +70,9 @@ def run_records(specs: Sequence, cfg, job: Job, *, workers: int | None = None,
         return []
     with Tracker(len(specs), show_progress(progress)) as tracker:
         if executor == "dask":
-            return _run_dask(specs, cfg, job, scheduler, tracker)
+            from .cluster import run_dask
+
+            return run_dask(specs, cfg, job, scheduler, tracker)
         if pool is not None:
             return _run_pool(specs, cfg, job, pool, tracker)
         with local_pool(workers, len(specs)) as own:
@@ -98,12 +96,6 @@ def resolve_workers(workers: int | None, n_records: int) -> int:
     return max(1, min(wanted, n_records))
 
 
-def crashed(spec, exc: BaseException) -> RecordResult:
-    """The failed result of a record whose job raised or whose worker died."""
-    where = getattr(spec, "path", None) or getattr(spec, "name", None) or str(spec)
-    reason = " ".join(f"{where}: processing crashed ({type(exc).__name__}: {exc})".split())
-    return RecordResult(name=getattr(spec, "name", str(spec)), source=str(where), error=reason)
-
 
 @contextmanager
 def limit_native_threads() -> Iterator[None]:
@@ -125,24 +117,6 @@ def _worker_init(owner: int) -> None:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1)
-
-
-def timed(job: Job, spec, cfg) -> tuple[Any, float]:
-    """``(job(spec, cfg), seconds)``: what a worker sends back (module-level: picklable).
-    A native panic is sent as a RuntimeError (:func:`portable`)."""
-    t0 = time.perf_counter()
-    try:
-        return job(spec, cfg), time.perf_counter() - t0
-    except BaseException as exc:
-        raise portable(exc) from None
-
-
-def portable(exc: BaseException) -> BaseException:
-    """``exc``, or for a native library's panic (pyo3's ``PanicException``, which cannot be
-    pickled: the parent would get a PicklingError instead) a RuntimeError saying it."""
-    if type(exc).__name__ == "PanicException":
-        return RuntimeError(f"PanicException: {exc}")
-    return exc
 
 
 # -- executors ---------------------------------------------------------------------------
@@ -458,23 +432,6 @@ def _run_isolated(indices: list[int], specs: list, cfg, job: Job, out: list,
         raise
 
 
-def record_fault(exc: BaseException) -> bool:
-    """Whether a job's exception is its record's fault (the record fails, the batch goes
-    on): any Exception, and a native library's panic (pyo3's ``PanicException``, a
-    BaseException); not KeyboardInterrupt, SystemExit or an interruption."""
-    return isinstance(exc, Exception) or type(exc).__name__ == "PanicException"
-
-
-def died(spec) -> RecordResult:
-    """The failed result of a record whose worker process died, twice: the second time
-    in a worker of its own."""
-    where = getattr(spec, "path", None) or getattr(spec, "name", None) or str(spec)
-    return RecordResult(name=getattr(spec, "name", str(spec)), source=str(where), error=(
-        f"{where}: its worker process died while processing it, in the shared pool and "
-        "again in a worker of its own (killed by the system: out of memory?); the other "
-        "records went on"))
-
-
 def is_broken(pool: ProcessPoolExecutor) -> bool:
     """Whether a worker of ``pool`` died (it takes no more work). ``_broken`` is the
     executor's own flag (CPython 3.11-3.14); there is no public one."""
@@ -513,90 +470,3 @@ def _apply(task: tuple[Callable, tuple]) -> Any:
     """``f(*args)`` for ``task = (f, args)`` (:func:`parallel_map`'s pool tasks)."""
     f, args = task
     return f(*args)
-
-
-def probe_scheduler(address: str, timeout: float = 5.0) -> None:
-    """A :class:`UserError` at once for a ``tcp://HOST:PORT`` address that is malformed or
-    refuses connections (``Client`` would retry for its whole timeout); other schemes are
-    left to Dask."""
-    from urllib.parse import urlsplit
-
-    parts = urlsplit(address if "://" in address else f"tcp://{address}")
-    if parts.scheme != "tcp":
-        return
-    try:
-        host, port = parts.hostname, parts.port
-    except ValueError:
-        host = port = None
-    if not host or port is None:
-        raise UserError(f"--scheduler {address!r}: expected a Dask scheduler address like "
-                        "tcp://HOST:PORT")
-    try:
-        socket.create_connection((host, port), timeout=timeout).close()
-    except OSError as exc:
-        raise UserError(f"cannot reach the Dask scheduler at {address}: "
-                        f"{exc.strerror or exc}") from None
-
-
-#: Seconds a scheduler has to answer once it has accepted the connection.
-CONNECT_TIMEOUT = 20.0
-
-
-def _connect(client_type, scheduler: str, timeout: float = CONNECT_TIMEOUT):
-    """``Client(scheduler)``, or a :class:`UserError` within ``timeout`` seconds (and a
-    few more): a port that accepts connections and never answers (or answers HTTP) kept
-    ``Client(..., timeout="20s")`` waiting for ever (issue 31: still running at 100 s).
-    The attempt runs in a daemon thread; one that never returns is left behind, and the
-    command ends with its error."""
-    box: dict = {}
-
-    def connect() -> None:
-        try:
-            box["client"] = client_type(scheduler, timeout=f"{timeout:g}s")
-        except BaseException as exc:  # MemoryError too: a peer's bytes read as a length
-            box["error"] = exc
-
-    thread = threading.Thread(target=connect, name="dask-connect", daemon=True)
-    thread.start()
-    thread.join(timeout + min(5.0, timeout))  # Client's own timeout first, if it keeps it
-    if thread.is_alive():
-        raise UserError(f"cannot reach the Dask scheduler at {scheduler}: the port accepted "
-                        f"the connection but nothing answered as a Dask scheduler within "
-                        f"{timeout:g} s; check the address: it is the tcp://HOST:PORT "
-                        "`dask scheduler` prints")
-    if "error" in box:
-        exc = box["error"]
-        if not isinstance(exc, Exception):
-            raise exc
-        raise UserError(" ".join(f"cannot reach the Dask scheduler at {scheduler}: "
-                                 f"{type(exc).__name__}: {exc}".split())[:300]) from None
-    return box["client"]
-
-
-def _run_dask(specs: list, cfg, job: Job, scheduler: str | None, tracker: Tracker) -> list:
-    try:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-    except ImportError:
-        raise UserError(f"the dask executor needs dask.distributed; {DASK_HINT}") from None
-    if scheduler:
-        probe_scheduler(scheduler)
-        client = _connect(Client, scheduler)
-    else:
-        client = Client()
-    with client:
-        cfg_future = client.scatter(cfg, broadcast=True)
-        futures = client.map(timed, [job] * len(specs), specs, cfg=cfg_future, pure=False)
-        index = {fut.key: i for i, fut in enumerate(futures)}
-        out: list = [None] * len(specs)
-        for fut in dask_completed(futures):
-            i = index[fut.key]
-            try:
-                out[i], seconds = fut.result()
-            except BaseException as exc:  # the job raised on the worker, or it died
-                if not record_fault(exc):
-                    raise
-                out[i], seconds = crashed(specs[i], exc), None
-            tracker.done(out[i], seconds)
-            fut.release()
-        return out
