@@ -94,7 +94,7 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     roles = {e.index: ("identification" if e.index in ident else "validation") for e in events}
     states = event_states(record, events)
     pool = worth_spreading(workers, sum(events[i].i_end - events[i].i_start for i in ident),
-                           len(ident))
+                           len(ident), record_samples=record.n_samples)
     shared = (record, events, ident, validation, states, opt)
     fits = [f for fs in spread(pool, _event_fits, shared, ident) for f in fs]
     if len(ident) > 1:

@@ -37,10 +37,20 @@ class Workers(Protocol):
     def map(self, fn: Callable[[Any], Any], items: Sequence) -> list: ...
 
 
-def worth_spreading(workers: Workers | None, samples: int, tasks: int) -> Workers | None:
-    """``workers`` when there is enough to fit (:data:`MIN_SAMPLES`) in at least two
-    tasks, else None (run here)."""
-    if workers is None or workers.size < 2 or tasks < 2 or samples < MIN_SAMPLES:
+#: Above this many samples in the record its fits stay in this process: every chunk
+#: carries a pickled copy of the record (24 bytes a sample), made in this process, and at
+#: 10 M samples that copy (240 MB) would stack on the peak memory the scale target holds
+#: to 3x the raw arrays. Not measured there yet; 1 M samples (24 MB a copy) spread.
+MAX_RECORD_SAMPLES = 2_000_000
+
+
+def worth_spreading(workers: Workers | None, samples: int, tasks: int, *,
+                    record_samples: int) -> Workers | None:
+    """``workers`` when there is enough to fit (``samples`` in the windows to fit, at
+    least :data:`MIN_SAMPLES`) in at least two tasks, and the record is not so long that
+    its copies cost memory (:data:`MAX_RECORD_SAMPLES`); else None (run here)."""
+    if workers is None or workers.size < 2 or tasks < 2 or samples < MIN_SAMPLES \
+            or record_samples > MAX_RECORD_SAMPLES:
         return None
     return workers
 

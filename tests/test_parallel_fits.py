@@ -75,10 +75,14 @@ def test_spread_keeps_the_order_of_the_tasks():
 
 def test_short_records_and_single_tasks_stay_here():
     w = PicklingWorkers(size=2)
-    assert parallel.worth_spreading(w, parallel.MIN_SAMPLES - 1, 10) is None
-    assert parallel.worth_spreading(w, parallel.MIN_SAMPLES, 1) is None
-    assert parallel.worth_spreading(PicklingWorkers(size=1), 10**6, 10) is None
-    assert parallel.worth_spreading(w, parallel.MIN_SAMPLES, 2) is w
+    n = parallel.MIN_SAMPLES
+    assert parallel.worth_spreading(w, n - 1, 10, record_samples=n) is None
+    assert parallel.worth_spreading(w, n, 1, record_samples=n) is None
+    assert parallel.worth_spreading(PicklingWorkers(size=1), 10**6, 10,
+                                    record_samples=10**6) is None
+    assert parallel.worth_spreading(w, n, 10, record_samples=parallel.MAX_RECORD_SAMPLES + 1
+                                    ) is None  # a record too long to copy for each chunk
+    assert parallel.worth_spreading(w, n, 2, record_samples=n) is w
     rec = staircase_record(n_steps=4)  # 600 samples: nothing is spread
     res = analyse(rec, OPTIONS, workers=w)
     assert w.calls == [] and res.recommended is not None

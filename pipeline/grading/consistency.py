@@ -107,7 +107,7 @@ def event_estimates(record: Record, events: list[Event], states: list[str],
     todo = [(ev.index, tuple(f.model for f in fits if f.ok and f.event == ev.index))
             for ev in steps if ev.index not in made]
     pool = worth_spreading(workers, sum(events[i].i_end - events[i].i_start for i, _ in todo),
-                           len(todo))
+                           len(todo), record_samples=record.n_samples)
     made.update(zip((i for i, _ in todo), spread(
         pool, _own_fit, (record, events, states, method, options), todo), strict=True))
     own: dict[int, Fit] = {ev.index: made[ev.index] for ev in steps if made[ev.index].ok}

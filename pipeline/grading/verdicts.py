@@ -122,7 +122,8 @@ def grade(result: RecordResult, workers: Workers | None = None) -> RecordResult:
         return result
     shared = record_flags(result)
     todo = [f for f in result.fits if f.ok and f.model is not None]
-    pool = worth_spreading(workers, result.record.n_samples, len(todo))
+    n = result.record.n_samples
+    pool = worth_spreading(workers, n, len(todo), record_samples=n)
     own = iter(spread(pool, _own_flags, result, todo))
     fits = []
     for f in result.fits:
