@@ -54,6 +54,8 @@ def _exit_now_if_interrupted(code) -> None:
     import os
     import sys
 
+    if not isinstance(code, int) or code <= 128:  # every exit but a signal's: no import of
+        return  # the batch layer (and through it scipy.signal, 1 s of CPU) for --version
     from .batch import SIGNALS
 
     if code not in {128 + int(s) for s in SIGNALS}:
