@@ -43,6 +43,7 @@ from .gate import (
     Tolerances,
     append_history,
     compare,
+    history_lock,
     history_rows,
     load_baseline,
     load_history,
@@ -285,7 +286,7 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
         try:
             if history is not None:
                 stages.step("history")
-                append_history(history, doc, run_time)
+                append_history(history, doc, run_time, lock=False)  # held: write_run
                 written.append(left.pop(0))
             if junit is not None:
                 stages.step("JUnit")
@@ -303,7 +304,8 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
                          f"System identification: {cfg.name}", extras=extras,
                          markdown=cfg.report.markdown, html=cfg.report.html,
                          plots_mode=cfg.report.plots, mapper=stages.counting(mapper),
-                         then=finish)
+                         then=finish,
+                         locks=() if history is None else (history_lock(history),))
     return _outcome(run, comparison, plan.target, baseline)
 
 

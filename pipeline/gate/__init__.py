@@ -19,9 +19,10 @@ from .baseline import (
 )
 from .baseline_file import load_baseline, load_results
 from .findings import RecordRegression, display_text, pct_text
-from .history import append_history, history_rows, load_history
+from .history import append_history, history_lock, history_rows, load_history
 from .tuning_findings import SETTINGS
 
 __all__ = ["Comparison", "Finding", "RecordRegression", "SETTINGS", "Tolerances", "accept",
-           "append_history", "compare", "display_text", "history_rows", "load_baseline",
-           "load_history", "load_results", "param_scale", "pct_text", "tolerance_problem"]
+           "append_history", "compare", "display_text", "history_lock", "history_rows",
+           "load_baseline", "load_history", "load_results", "param_scale", "pct_text",
+           "tolerance_problem"]

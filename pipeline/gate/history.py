@@ -26,6 +26,7 @@ import io
 import math
 import os
 from collections.abc import Mapping
+from contextlib import nullcontext
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -109,20 +110,29 @@ def _number(v) -> float | None:
 
 
 def append_history(path: str | os.PathLike, results: ResultsDoc,
-                   run_time: datetime | None = None) -> pl.DataFrame:
+                   run_time: datetime | None = None, *, lock: bool = True) -> pl.DataFrame:
     """Append the rows of one run (``results``: a results document) to the parquet file
-    at ``path`` (created with its folder when absent); returns the whole history."""
-    p = through_link(Path(path), "history")  # one lock for every link to one file
+    at ``path`` (created with its folder when absent); returns the whole history.
+    ``lock=False``: the caller holds :func:`history_lock` already (a run takes it before
+    it holds SIGTERM to publish, so that a run waiting for it still stops at once)."""
+    p = through_link(Path(path), "history")
     new = history_rows(results, run_time)
     # read, add, replace: one run at a time, or rows are lost (four runs appending at once
     # kept 1 of 4 rows without it, issue 31)
-    with locked(p, "the history", LOCK_WAIT, "this run's rows were not added"):
+    with history_lock(p) if lock else nullcontext():
         frame = pl.concat([load_history(p), new], how="diagonal_relaxed") if p.exists() \
             else new
         buf = io.BytesIO()
         frame.write_parquet(buf)
         write_atomic(p, buf.getvalue(), "history", through=True)
     return frame
+
+
+def history_lock(path: str | os.PathLike):
+    """The history's lock (:func:`pipeline.files.locked`): one run at a time reads, adds
+    to and replaces it; one lock for every link to one file."""
+    p = through_link(Path(path), "history")
+    return locked(p, "the history", LOCK_WAIT, "this run's rows were not added")
 
 
 #: How long a run waits for another run's history append (seconds) before it says so.

@@ -7,7 +7,8 @@ never leaves a half-written report, the user's files are kept).
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager, ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -120,10 +121,13 @@ def _environment(kind: str) -> Environment:
 def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
               extras: Extras | None = None, markdown: bool = True, html: bool = True,
               plots_mode: str = "auto", mapper=map,
-              then: Callable[[], None] | None = None) -> Path:
+              then: Callable[[], None] | None = None,
+              locks: Sequence[AbstractContextManager] = ()) -> Path:
     """Write results.json, report.md (+ plots/) and report.html into ``out_dir``; then
     ``then()`` (the run's history row and JUnit file) under the same hold of SIGTERM and
     SIGINT, so an interrupted run leaves the previous outputs or all the new ones.
+    ``locks`` (what ``then`` writes to: the history's) are taken, in order, before the
+    folder's lock and before the signals are held, so a run waiting for one stops at once.
 
     The folder is created if need be; in an existing one only the run's own outputs are
     replaced (:mod:`pipeline.report.outdir`: staged inside the folder, then replaced file
@@ -143,10 +147,13 @@ def write_run(out_dir: Path, run: RunResult, doc: ResultsDoc, *, title: str,
     try:
         # the folder's lock is waited for before signals are held: a run waiting for
         # another's publish stops at once on SIGTERM
-        with folder_lock(out_dir), deferred():  # never half a report
-            publish(out_dir, outputs, lock=False)
-            if then is not None:
-                then()
+        with ExitStack() as held:
+            for lock in locks:
+                held.enter_context(lock)
+            with folder_lock(out_dir), deferred():  # never half a report
+                publish(out_dir, outputs, lock=False)
+                if then is not None:
+                    then()
     except OSError as exc:
         raise UserError(f"{out_dir}: cannot write the report ({exc.strerror or exc})") from None
     return out_dir
