@@ -305,7 +305,9 @@ def _run_config(config: str | os.PathLike | RunConfig, stack: ExitStack, *,
                          markdown=cfg.report.markdown, html=cfg.report.html,
                          plots_mode=cfg.report.plots, mapper=stages.counting(mapper),
                          then=finish,
-                         locks=() if history is None else (history_lock(history),))
+                         locks=() if history is None else (history_lock(
+                             history, "nothing of this run was written (its reports, its "
+                             "history row, its JUnit file)"),))
     return _outcome(run, comparison, plan.target, baseline)
 
 

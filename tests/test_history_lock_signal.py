@@ -6,6 +6,7 @@ the stopped run; once the lock is free, the same run writes its report and its r
 from __future__ import annotations
 
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -26,9 +27,9 @@ CHILD = textwrap.dedent("""
     real = run.history_lock
 
     @contextmanager
-    def announced(path):
+    def announced(*args):
         print("waiting for the history lock", file=sys.stderr, flush=True)
-        with real(path):
+        with real(*args):
             yield
 
     run.history_lock = announced
@@ -50,8 +51,12 @@ def _start(tmp_path, out, history):
 
 
 def _wait_for(proc, text: str, timeout: float = 120.0) -> None:
+    """Read the child's stderr until ``text``, for at most ``timeout`` seconds (a child
+    that hangs without writing fails the test, it does not hang it)."""
     end = time.monotonic() + timeout
-    while time.monotonic() < end:
+    while (left := end - time.monotonic()) > 0:
+        if not select.select([proc.stderr], [], [], left)[0]:
+            break
         line = proc.stderr.readline()
         if text in line:
             return
@@ -70,9 +75,8 @@ def test_sigterm_while_waiting_for_the_history_lock(tmp_path):
             time.sleep(0.5)
             t0 = time.monotonic()
             proc.send_signal(signal.SIGTERM)
-            code = proc.wait(timeout=30)
-            waited = time.monotonic() - t0
-            err = proc.stderr.read()
+            _, err = proc.communicate(timeout=30)
+            code, waited = proc.returncode, time.monotonic() - t0
         finally:
             proc.kill()
     assert code == 128 + signal.SIGTERM, err
@@ -94,10 +98,34 @@ def test_the_same_run_goes_through_once_the_lock_is_free(tmp_path):
         time.sleep(0.5)
         assert not (out / "results.json").exists()  # it waits before publishing
         lock.release()
-        assert proc.wait(timeout=120) == 0, proc.stderr.read()
+        _, err = proc.communicate(timeout=120)  # (reads stderr: a full pipe never stalls it)
+        assert proc.returncode == 0, err
     finally:
         proc.kill()
         if lock.is_locked:
             lock.release()
     assert (out / "results.json").exists() and (out / "report.html").exists()
     assert pl.read_parquet(history).height >= 1
+
+
+def test_a_history_held_too_long_says_nothing_was_written(tmp_path, monkeypatch):
+    """The lock is taken before anything is published, so its timeout says that the run
+    wrote nothing (not only that its rows are missing), and leaves no report."""
+    from typer.testing import CliRunner
+
+    from pipeline.cli.commands import app
+    from pipeline.gate import history as hist
+
+    p = _csv(tmp_path)
+    c = _config(tmp_path, f"name: t\ndata:\n  path: {p.name}\n  input: u\n  output: y\n"
+                "  time: time\nmethods: [first_order]\n")
+    out, history = tmp_path / "out", tmp_path / "history.parquet"
+    monkeypatch.setattr(hist, "LOCK_WAIT", 0.3)
+    with FileLock(str(tmp_path / "history.parquet.lock")):
+        r = CliRunner().invoke(app, ["run", str(c), "--out", str(out), "--workers", "1",
+                                     "--history", str(history)])
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "another run has held the history" in lines[0]
+    assert "nothing of this run was written" in lines[0]
+    assert not (out / "results.json").exists() and not history.exists()

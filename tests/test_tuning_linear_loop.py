@@ -23,6 +23,15 @@ CASES = {
     "delay dominant": ([2.0], [10.0, 1.0], 30.0, Pid(Kc=0.15, Ti=10.0)),
     "inverse response": ([-1.0, 1.0], [20.0, 9.0, 1.0], 1.0, Pid(Kc=1.0, Ti=9.0)),
     "unstable first order": ([1.0], [5.0, -1.0], 0.5, Pid(Kc=3.0, Ti=4.0)),
+    # higher orders (review: the plant as one expanded polynomial in lfilter lost 4 digits
+    # at n = 4 and diverged from n = 5; the blocks are in state space)
+    "three lags": ([1.0], np.poly([-0.1] * 3) * 1000.0, 1.0, Pid(Kc=1.0, Ti=25.0)),
+    "four lags PID": ([1.0], np.poly([-0.1] * 4) * 1e4, 1.0,
+                      Pid(Kc=1.2, Ti=30.0, Td=6.0, Tf=0.6)),
+    "six lags": ([2.0], np.poly([-0.2] * 6) * 5.0**6, 0.5, Pid(Kc=0.3, Ti=20.0)),
+    "eight lags": ([1.0], np.poly([-0.5] * 8) * 2.0**8, 1.0, Pid(Kc=0.25, Ti=12.0)),
+    "lag behind a pair": ([1.0], np.polymul([8.0, 1.0], [1.0, 0.4, 1.0]), 0.8,
+                          Pid(Kc=0.3, Ti=6.0)),
 }
 
 

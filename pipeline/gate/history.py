@@ -128,11 +128,12 @@ def append_history(path: str | os.PathLike, results: ResultsDoc,
     return frame
 
 
-def history_lock(path: str | os.PathLike):
+def history_lock(path: str | os.PathLike, lost: str = "this run's rows were not added"):
     """The history's lock (:func:`pipeline.files.locked`): one run at a time reads, adds
-    to and replaces it; one lock for every link to one file."""
+    to and replaces it; one lock for every link to one file. ``lost``: what a run that
+    cannot get it did not write (a run takes it before it publishes anything)."""
     p = through_link(Path(path), "history")
-    return locked(p, "the history", LOCK_WAIT, "this run's rows were not added")
+    return locked(p, "the history", LOCK_WAIT, lost)
 
 
 #: How long a run waits for another run's history append (seconds) before it says so.

@@ -53,8 +53,10 @@ MAX_STEPS = 200_000
 #: The default setpoint phase lasts this many characteristic times.
 PHASE_TIMES = 5.0
 #: The loop is simulated in blocks of the dead time when it is at least this many samples
-#: (:func:`_block_loop`), else sample by sample.
+#: and the block's matrices (its samples times the plant's order) hold at most
+#: :data:`MAX_BLOCK_TERMS` numbers (:func:`_block_loop`), else sample by sample.
 MIN_BLOCK = 8
+MAX_BLOCK_TERMS = 2_000_000
 #: The settling band, as a fraction of the step size (or of the load's effect).
 SETTLING_BAND = 0.02
 
@@ -351,39 +353,52 @@ def _block_loop(ad: np.ndarray, bd: np.ndarray, cd: np.ndarray, Dp: float, nd: i
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """``(y, u, clipped)``: :func:`_sample_loop`'s recursion ``nd`` samples at a time.
     Within such a block the plant's input is what the controller sent ``nd`` samples
-    earlier, all known, so the block's output is the sampled plant ``C (z I - A)^-1 B +
-    Dp`` filtered over it, and the controller's proportional and derivative parts are
-    filters of that output (``scipy.signal.lfilter``, their states carried from block to
-    block). What is left is the integral with its back-calculation, ``I += ki e + kt
-    (sat(v) - v)`` with ``v = p + I``: a cumulative sum while ``v`` stays within the limits
-    and, while it is held at a limit ``L``, the first-order recursion ``I = (1 - kt) I + ki
-    e + kt (L - p)`` (:func:`_integral`). Why: the per-sample loop costs 2.5-6 us a
-    sample, 0.26-0.35 s of a 100-sample log's 1.9 s of ``identify`` (two simulations of
-    11-46 k samples); the blocks (at least :data:`MIN_BLOCK` samples: a dead time is at
-    least 100 of the default grid's), a few ms. One filter for the whole linear loop
-    would be cheaper still, but its denominator has poles clustered near ``z = 1`` and
-    lost 6 digits. None (the per-sample loop) when the dead time is shorter than a block
-    or the plant's transfer function cannot be formed."""
+    earlier, all known, so the block's output is the sampled plant's response from its
+    state at the block's start and to that input, in state space: ``y[j] = C A^j x0 +
+    sum_{i<=j} h[j-i] v[i]`` with the Markov parameters ``h = (Dp, C B, C A B, ...)`` (a
+    convolution), and the state after it is ``A^m x0 + sum_i A^(m-1-i) B v[i]``. The
+    controller's proportional and derivative parts are filters of that output
+    (``scipy.signal.lfilter``, their states carried from block to block). What is left
+    is the integral with its back-calculation, ``I += ki e + kt (sat(v) - v)`` with ``v =
+    p + I``: a cumulative sum while ``v`` stays within the limits and, while it is held
+    at a limit ``L``, the first-order recursion ``I = (1 - kt) I + ki e + kt (L - p)``
+    (:func:`_integral`). Why: the per-sample loop costs 2.5-6 us a sample, 0.26-0.35 s
+    of a 100-sample log's 1.9 s of ``identify`` (two simulations of 11-46 k samples);
+    the blocks (at least :data:`MIN_BLOCK` samples: a dead time is at least 100 of the
+    default grid's), a few ms. Not as a transfer function: ``lfilter`` on the plant's
+    expanded polynomial lost digits on slow poles and diverged from order 5 (its roots,
+    clustered near ``z = 1``, left the unit circle), on the whole loop's it lost 6
+    digits at order 2. None (the per-sample loop) when the dead time is shorter than a
+    block or the block's matrices would exceed :data:`MAX_BLOCK_TERMS`."""
     if nd < MIN_BLOCK:
         return None
     kc, bw, ki, kt, a_d, k_d = gains
-    if bd.size:
-        num, pd = signal.ss2tf(ad, bd[:, None], cd[None, :], np.array([[Dp]]))
-        pn = np.asarray(num[0], float)
-    else:
-        pn, pd = np.array([Dp]), np.array([1.0])
-    if not (np.all(np.isfinite(pn)) and np.all(np.isfinite(pd)) and pd[0] != 0):
+    r = bd.size
+    if nd * max(r, 1) > MAX_BLOCK_TERMS:
         return None
+    # the block's response from its initial state and to its input: O[j] = C A^j, the
+    # Markov parameters h = (Dp, C B, C A B, ...) and R = (A^(nd-1) B, ..., B)
+    obs = np.empty((nd, r))
+    reach = np.empty((r, nd))
+    row, col = cd.astype(float), bd.astype(float)
+    for j in range(nd):
+        obs[j], reach[:, nd - 1 - j] = row, col
+        row, col = row @ ad, ad @ col
+    markov = np.concatenate([[Dp], obs @ bd])
+    a_nd = np.linalg.matrix_power(ad, nd)
+    x = np.zeros(r)
     n = steps + 1
     y, u, w = np.empty(n), np.empty(n), np.zeros(n)
     clipped = np.zeros(n, bool)
-    zp = np.zeros(max(pn.size, pd.size) - 1)
     zd = np.zeros(1)  # the derivative filter D = -k_d (1 - q)/(1 - a_d q) y, q = z^-1
     integ = 0.0
     for s in range(0, n, nd):
         e = min(s + nd, n)
-        v = w[s - nd: e - nd] if s else np.zeros(e)  # the plant's input, nd samples late
-        y[s:e], zp = signal.lfilter(pn, pd, v, zi=zp)
+        m = e - s
+        v = w[s - nd: e - nd] if s else np.zeros(m)  # the plant's input, nd samples late
+        conv = np.convolve if m <= 256 else signal.oaconvolve
+        y[s:e] = obs[:m] @ x + conv(v, markov[:m])[:m]
+        x = (a_nd if m == nd else np.linalg.matrix_power(ad, m)) @ x + reach[:, nd - m:] @ v
         dterm, zd = signal.lfilter([-k_d, k_d], [1.0, -a_d], y[s:e], zi=zd)
         err = rk - y[s:e]
         integ = _integral(kc * (bw * rk - y[s:e]) + dterm, err, integ, (ki, kt), limits,
