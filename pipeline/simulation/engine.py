@@ -198,8 +198,8 @@ MAX_GRID = 2_000_000
 def simulate_irregular(model: ProcessModel, t: np.ndarray, u: np.ndarray, u0: float,
                        y0: float) -> np.ndarray:
     """Exact ZOH simulation on an irregular grid (see the module docstring); a staircase
-    input (:data:`FEW_CHANGES`) by superposition of the closed-form step responses
-    (:func:`_superposed`)."""
+    input (:data:`SUPERPOSED_FIRST`, :data:`FEW_CHANGES`) by superposition of the
+    closed-form step responses (:func:`_superposed`)."""
     changes = int(np.count_nonzero(np.diff(u, prepend=float(u0))))
     if changes <= SUPERPOSED_FIRST:
         return _superposed(model, t, u, u0, y0)

@@ -26,8 +26,9 @@ controller tuning", J. Process Control 13 (2003) 291-309: a setpoint step at ``t
 and a load step at the plant input at ``t_load``, each judged on its own phase.
 
 Speed: a loop with a dead time of at least :data:`MIN_BLOCK` samples is simulated a
-dead time at a time (:func:`_block_loop`: the plant and the controller's linear parts as
-filters, the integral with its limiter segment by segment), a few ms for 10-50 k samples;
+dead time at a time (:func:`_block_loop`: the plant's state-space response to the input
+it already has, the controller's linear parts as filters, the integral with its limiter
+segment by segment), a few ms for 10-50 k samples;
 otherwise a Python loop over the samples with scalar floats, measured 2.5 to 5 us per
 sample for a first- or second-order plant (20 k samples in 0.05 to 0.1 s on one core),
 6 us for a fifth-order plant.
@@ -310,8 +311,8 @@ def simulate_loop(num: ArrayLike, den: ArrayLike, delay: float, pid: Pid, *, r_s
 
 
 def _sample_loop(A, B, C, Dp: float, nd: int, gains, direct: bool, limits, rk: float,
-                    d_step: float, k_load: int, steps: int
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 d_step: float, k_load: int, steps: int
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(y, u, clipped)`` of the loop, sample by sample (see the module docstring): a
     Python loop over scalar floats."""
     kc, bw, ki, kt, a_d, k_d, gain = gains
