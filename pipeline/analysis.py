@@ -27,13 +27,20 @@ import numpy as np
 
 from .events import EventData
 from .fit import Fit
-from .grading import grade, information_criteria, no_usable_model, per_step, recommend
+from .grading import (
+    grade,
+    information_criteria,
+    no_usable_model,
+    noise_bar,
+    per_step,
+    recommend,
+)
 from .methods import REGISTRY, event_fit, identify, select_methods, span_refinement
 from .metrics import mse
 from .outliers import without_outliers
 from .parallel import Workers, spread, worth_spreading
 from .record import Record
-from .refine import RefineOptions, event_states, held_out_events
+from .refine import RefineOptions, event_states, held_out_events, widened
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
 from .tuning import RecordTuning, TuningOptions, model_trust, tune
@@ -177,8 +184,13 @@ def _event_fits(shared: tuple, i: int) -> list[Fit]:
     carried from an earlier event that was, or estimated: :mod:`pipeline.refine.joint`).
     ``shared``: the record, its events, the identification and validation events, their
     states and the options (one task of :func:`pipeline.parallel.spread`)."""
-    record, events, _, validation, states, opt = shared
+    record, events, ident, validation, states, opt = shared
     ev = events[i]
+    # the events a refinement's intervals learn the noise from: its validation events, or
+    # with every event identifying the ones its cross-validation error is taken on
+    crossed = not validation and opt.events == "all" and len(ident) > 1
+    heldout = held_out_events(ident, i) if crossed else validation
+    refine_opt = replace(opt.refine, sensitivity=True) if heldout else opt.refine
     data = EventData.from_event(record, ev)
     selected = select_methods(opt.methods, ev.kind)
     short = ev.i_end - ev.i_start < MIN_WINDOW_SAMPLES
@@ -193,10 +205,19 @@ def _event_fits(shared: tuple, i: int) -> list[Fit]:
         t0 = time.perf_counter()
         if mid in REGISTRY and REGISTRY[mid].kind == "refinement":
             fit = event_fit(record, events, i, mid, models=[f.model for f in out if f.ok],
-                            states=states, options=opt.refine)
+                            states=states, options=refine_opt)
         else:
             fit = identify(data, mid)
-        if fit.ok:
+        if fit.ok and fit.is_refined and heldout:
+            residuals = heldout_residuals(fit.model, record, events, heldout,
+                                          fit.balance_point)
+            fit = widened(fit, *residuals, noise_bar(fit, [events[k] for k in heldout]))
+            metrics = score(fit.model, record, events, ev, validation, fit.balance_point,
+                            heldout=None if crossed else residuals)
+            if crossed:  # what _held_out would give it
+                metrics["mse_cross_validation"] = mse(residuals[1], 0 * residuals[1])
+            fit = replace(fit, metrics=metrics)
+        elif fit.ok:
             fit = replace(fit, metrics=score(fit.model, record, events, ev, validation,
                                              fit.balance_point))
         out.append(replace(fit, seconds=time.perf_counter() - t0))

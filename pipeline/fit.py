@@ -93,6 +93,20 @@ class ParameterCovariance:
 
 
 @dataclass(frozen=True)
+class RowSensitivity:
+    """How a refinement's estimates move with its criterion rows' noise, kept only until
+    the held-out residuals widen its intervals (:mod:`pipeline.refine.heldout_noise`):
+    ``rows``, the profiled pseudo-inverse (one row per coordinate of its
+    :class:`ParameterCovariance`, one column per criterion row, the rows consecutive in
+    time), ``samples`` fit samples per criterion row (block means beyond the refinement's
+    ``max_rows``), and the t ``quantile`` of its intervals."""
+
+    rows: np.ndarray
+    samples: int
+    quantile: float
+
+
+@dataclass(frozen=True)
 class RefinementSummary:
     """What a least-squares refinement says about itself, beside its model and intervals.
 
@@ -104,6 +118,9 @@ class RefinementSummary:
     estimated parameters (the model's and the linear nuisances); the parameters'
     standard errors; the search's residual evaluations and starts; how the intervals were
     made; and the ``folds`` of a cross-validated fit over several events.
+    ``covariance`` is the one the intervals are made of; ``covariance_fit`` the fit's own
+    (from its residuals alone) where the held-out residuals widened it, else None;
+    ``sensitivity`` (:class:`RowSensitivity`) is transient, never in results.
     """
 
     state: StateTreatment
@@ -121,6 +138,8 @@ class RefinementSummary:
     carried_from: int | None = None
     folds: tuple[Fold, ...] = ()
     covariance: ParameterCovariance | None = None
+    covariance_fit: ParameterCovariance | None = None
+    sensitivity: RowSensitivity | None = field(default=None, compare=False, repr=False)
 
     @property
     def state_text(self) -> str:

@@ -233,10 +233,12 @@ def run_errors(sims: list[tuple[slice, np.ndarray] | None], record: Record
 
 
 def score(model: ProcessModel, record: Record, events: list[Event], ident: Event,
-          validation: list[int], balance: float | None = None) -> dict[str, float]:
+          validation: list[int], balance: float | None = None,
+          heldout: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, float]:
     """The metrics of one model (see the module docstring; ``balance``: an integrating
     refinement's balance point, :attr:`pipeline.fit.Fit.balance_point`); NaN where there is
-    no data."""
+    no data. ``heldout``: :func:`heldout_residuals` on ``validation``, when the caller
+    has them already."""
     sl = slice(ident.i_start, ident.i_end)
     y_id = record.y[sl]
     sim_id = event_simulation(model, record, ident)
@@ -246,7 +248,8 @@ def score(model: ProcessModel, record: Record, events: list[Event], ident: Event
         "mse_validation": float("nan"),
         "fit_percent": float("nan"),
     }
-    idx, e = heldout_residuals(model, record, events, validation, balance)
+    idx, e = heldout if heldout is not None else heldout_residuals(
+        model, record, events, validation, balance)
     if idx.size:
         metrics["mse_validation"] = float(np.mean(e * e))  # mse(e, 0 * e): the same number
         metrics["fit_percent"] = fit_percent_of_errors(record.y[idx], e)

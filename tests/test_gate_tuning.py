@@ -60,8 +60,13 @@ def test_a_longer_dead_time_is_a_tuning_drift_on_the_recommended_model(nights):
     # Kc = T/(K 2 theta) halves and Ti = min(T, 8 theta) doubles where 8 theta < T: every
     # FOPDT record, all noise colours, has a drifted setting; the dead time of a fast
     # loop (0.5 s on 10 s) is a small change of the model (5 % of its time scale: no
-    # param_drift) but not of its tuning
-    assert {f"{n} {k}" for n in NAMES[:2] for k in NOISE_KINDS} <= {f.record for f in drift}
+    # param_drift) but not of its tuning. Except under 1/f noise: there the fast loop's
+    # intervals, widened by the held-out residuals' noise (issue 27 item 8), make the
+    # doubled 2.5-sample dead time a change within 1.4 times the two nights' spread
+    # (Kc -1.51 against 2.37, Ti +2.56 against 3.23; before the widening, with intervals
+    # that covered the gain in 73 % under 1/f noise, -1.83 against 1.49)
+    expected = {f"{n} {k}" for n in NAMES[:2] for k in NOISE_KINDS} - {"fopdt_delay0.05 pink"}
+    assert expected <= {f.record for f in drift}
     assert not [f for f in result.regressions if f.kind == "param_drift"
                 and f.record.startswith("fopdt_delay0.05") and "(recommended" in f.message]
     for f in drift:

@@ -11,6 +11,7 @@ log, the closed-loop check, and the recommended model.
 """
 
 from .consistency import per_step, static_map_note
+from .heldout import noise_bar
 from .recommendation import (
     CRITERION_COLUMNS,
     CRITERION_NAMES,
@@ -22,5 +23,5 @@ from .recommendation import (
 from .verdicts import FLAGS, grade, no_usable_model, record_verdict
 
 __all__ = ["CRITERION_COLUMNS", "CRITERION_NAMES", "FLAGS", "criterion", "grade",
-           "information_criteria", "no_usable_model", "per_step", "ranked", "recommend",
-           "record_verdict", "static_map_note"]
+           "information_criteria", "no_usable_model", "noise_bar", "per_step", "ranked",
+           "recommend", "record_verdict", "static_map_note"]

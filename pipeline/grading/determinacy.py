@@ -113,8 +113,12 @@ def heldout_spread(fit: Fit, record: Record, events: list[Event], heldout: list[
     one standard deviation along it, the squared changes summed (the prediction variance
     ``diag(J C J^T)`` by finite differences; Ljung, System Identification, 2nd ed., eq.
     9.57). An integrating model's gain error grows along a validation run; a lag's error
-    shows where the held-out steps are. None without a covariance (a reading)."""
-    cov = fit.refinement.covariance if fit.is_refined else None
+    shows where the held-out steps are. None without a covariance (a reading). The fit's
+    own covariance where the held-out residuals widened its intervals
+    (:mod:`pipeline.refine.heldout_noise`): a misfit must not widen the spread it is
+    judged against."""
+    cov = None if not fit.is_refined else (fit.refinement.covariance_fit
+                                           or fit.refinement.covariance)
     if cov is None or not heldout:
         return None
     matrix = np.asarray(cov.matrix, dtype=np.float64)

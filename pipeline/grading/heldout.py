@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from ..events import Event
 from ..fit import Fit, Flag
 from ..record import Record
 from ..refine import held_out_events
@@ -41,6 +42,17 @@ def own_rms(fit: Fit) -> float:
     mse = fit.refinement.mse_fit if fit.is_refined else fit.metrics.get(
         "mse_identification", math.nan)
     return math.sqrt(mse) if math.isfinite(mse) and mse >= 0 else math.nan
+
+
+def noise_bar(fit: Fit, held: list[Event]) -> float:
+    """The held-out RMS error that noise can explain for ``fit``: :data:`MISFIT_RATIO`
+    times the larger of the held-out events' mean noise and the fit's own error
+    (:func:`validation_misfit`'s first bar, before the best refinement's floor, which
+    needs every fit). :func:`pipeline.refine.heldout_noise.widened` reads held-out
+    residuals beyond it as misfit, not noise."""
+    noise = float(np.mean([e.noise for e in held])) if held else 0.0
+    own = own_rms(fit)
+    return MISFIT_RATIO * max(noise, own if math.isfinite(own) else 0.0)
 
 
 def fit_floor(fit: Fit, result: RecordResult) -> float:
@@ -81,8 +93,7 @@ def validation_misfit(fit: Fit, result: RecordResult, floor: float) -> Flag | No
             result.identification_events, fit.event)
     held = [result.events[i] for i in held_out]
     noise = float(np.mean([e.noise for e in held])) if held else 0.0
-    ref = max(noise, own_rms(fit) if math.isfinite(own_rms(fit)) else 0.0,
-              floor if math.isfinite(floor) else 0.0)
+    ref = max(noise_bar(fit, held) / MISFIT_RATIO, floor if math.isfinite(floor) else 0.0)
     if not math.isfinite(mse) or ref <= 0:
         return None
     ratio = math.sqrt(mse) / ref

@@ -8,7 +8,9 @@ operating point and initial state, and calibrated 95 % intervals.
 - :mod:`.event` - one event alone: its window, how its initial state is treated, why a
   structure does not apply;
 - :mod:`.joint` - one model over several events, the state carried through the record,
-  and the cross-validation folds (:mod:`.left_out`: Gauss-Newton folds beyond ten).
+  and the cross-validation folds (:mod:`.left_out`: Gauss-Newton folds beyond ten);
+- :mod:`.heldout_noise` - a one-event refinement's intervals widened by the noise its
+  held-out events show.
 """
 
 from .event import (
@@ -20,9 +22,10 @@ from .event import (
     summary,
     unchanged,
 )
+from .heldout_noise import widened
 from .joint import fold_models, held_out_events, span_fit
 from .refinement import MIN_DOF, Refinement, RefineOptions, refine
 
 __all__ = ["MIN_DOF", "RefineOptions", "Refinement", "baseline_drift", "carry_source",
            "event_states", "fold_models", "held_out_events", "mismatch", "refine",
-           "refine_event", "span_fit", "summary", "unchanged"]
+           "refine_event", "span_fit", "summary", "unchanged", "widened"]

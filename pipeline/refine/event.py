@@ -213,7 +213,7 @@ def summary(ref: Refinement, carried_from: int | None = None) -> RefinementSumma
         n_eff=ref.n_eff, variance_factor=ref.variance_factor, n_params=ref.n_params,
         std=dict(ref.std), nfev=ref.nfev, runs=ref.n_runs,
         interval_method=ref.diagnostics.get("interval_method", JACOBIAN_INTERVALS),
-        covariance=ref.covariance)
+        covariance=ref.covariance, sensitivity=ref.sensitivity)
 
 
 def event_states(record: Record, events: Sequence[Event]) -> list[InitialState]:

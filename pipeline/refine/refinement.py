@@ -43,10 +43,17 @@ from typing import get_args
 
 import numpy as np
 
-from ..fit import InitialState, ParameterCovariance
+from ..fit import InitialState, ParameterCovariance, RowSensitivity
 from ..models import STRUCTURES, ProcessModel
-from ..uncertainty import block_bootstrap_residuals, covariance, t_quantile, variance_factor
+from ..uncertainty import (
+    block_bootstrap_residuals,
+    covariance,
+    gram_pinv,
+    t_quantile,
+    variance_factor,
+)
 from .lstsq import block_means, project_out, solve
+from .lstsq import runs as mask_runs
 from .problem import Columns, Problem
 from .search import Run, Space, multistart, search_space, snap
 
@@ -71,7 +78,9 @@ class RefineOptions:
     with ``coarse`` the search runs on a decimated copy first and the exact problem is
     polished from its optimum); ``free_lags`` columns at most for the free response;
     ``bootstrap`` block-bootstrap refits for the intervals (0: Jacobian intervals),
-    ``seed`` their resampling; ``level`` of the intervals."""
+    ``seed`` their resampling; ``level`` of the intervals; ``sensitivity``: keep the
+    profiled pseudo-inverse's rows (:class:`pipeline.fit.RowSensitivity`), for intervals
+    widened by held-out residuals (:mod:`pipeline.refine.heldout_noise`)."""
 
     n_starts: int = 3
     max_nfev: int = 300
@@ -81,6 +90,7 @@ class RefineOptions:
     bootstrap: int = 0
     seed: int = 0
     level: float = 0.95
+    sensitivity: bool = False
 
 
 @dataclass(frozen=True)
@@ -104,6 +114,7 @@ class Refinement:
     n_runs: int
     diagnostics: dict = field(default_factory=dict)
     covariance: ParameterCovariance | None = None
+    sensitivity: RowSensitivity | None = None
 
     @property
     def mse(self) -> float:
@@ -290,32 +301,55 @@ def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
     jac = _profiled_jacobian(prob, space, p, K)
     factor = variance_factor(rows_resid)
     cov = covariance(jac, rows_resid, rank + len(free), factor)
-    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     q = t_quantile(max(rows_resid.size / factor - rank - len(free), MIN_DOF), opt.level)
     z = space.to_z(p) if free else np.empty(0)
-    ci = {"K": (K - q * float(sd[-1]), K + q * float(sd[-1]))}
-    std = {"K": float(sd[-1])}
-    for i, n in enumerate(free):
-        lo, hi = z[i] - q * sd[i], z[i] + q * sd[i]
-        if space.log[i]:
-            ci[n] = (math.exp(max(lo, -700.0)), math.exp(min(hi, 700.0)))
-            std[n] = float(sd[i] * p[n])
-        else:
-            b_lo, b_hi = STRUCTURES[prob.structure].bounds.get(n, (-math.inf, math.inf))
-            ci[n] = (max(float(lo * space.scale[i]), b_lo), min(float(hi * space.scale[i]), b_hi))
-            std[n] = float(sd[i] * space.scale[i])
-    model, ci, std = _model(prob.structure, p, K, ci, std)
+    model = _model(prob.structure, p, K, {}, {})[0]
     names = free + ["K"]
     if "T1" in names and "T2" in names and model.params["T1"] != p["T1"]:  # swapped
         names = [{"T1": "T2", "T2": "T1"}.get(n, n) for n in names]
     cov_z = ParameterCovariance(
         tuple(names), (*map(bool, space.log), False), (*map(float, space.scale), 1.0),
         (*map(float, z), K), tuple(tuple(map(float, row)) for row in cov))
+    ci, std = intervals(prob.structure, cov_z, model.params, q)
+    sens = None
+    if opt.sensitivity and (prob.mask is None or mask_runs(prob.mask)[0].size == 1):
+        # the rows consecutive in time (one run of fit samples)
+        sens = RowSensitivity(gram_pinv(jac) @ jac.T, int(np.median(prob.counts))
+                              if prob.counts.size else 1, q)
     return Refinement(
         model=model, y0=y0, u0=float(u0), ci95=ci, std=std, fitted=fitted, residuals=resid,
         initial_state=initial_state, n_linear=rank, variance_factor=variance_factor(resid),
         nfev=nfev, n_runs=runs, diagnostics={"coefficients": [float(v) for v in c[2:]],
-                                             "rows": int(prob.y.size)}, covariance=cov_z)
+                                             "rows": int(prob.y.size)}, covariance=cov_z,
+        sensitivity=sens)
+
+
+def intervals(structure: str, cov: ParameterCovariance, values: Mapping[str, float],
+              q: float) -> tuple[dict[str, tuple[float, float]], dict[str, float]]:
+    """``(intervals, standard errors)`` of each coordinate of ``cov`` at ``q`` standard
+    deviations: on log scale (never crossing zero) for a log coordinate, the standard
+    error its delta-method value ``sd x value`` (``values``: the parameters at the fit);
+    a linear one times its scale within the structure's bounds; the gain unbounded."""
+    sd = np.sqrt(np.maximum(np.diag(np.asarray(cov.matrix, np.float64)), 0.0))
+    ci: dict[str, tuple[float, float]] = {}
+    std: dict[str, float] = {}
+    spec = STRUCTURES[structure]
+    bounds = spec.bounds
+    at = {n: i for i, n in enumerate(cov.names)}
+    for n in ["K", *(n for n in spec.params if n != "K" and n in at)]:  # the gain first
+        i = at[n]
+        zi, s = cov.z[i], float(sd[i])
+        lo, hi = zi - q * s, zi + q * s
+        if n == "K":
+            ci[n], std[n] = (zi - q * s, zi + q * s), s
+        elif cov.log[i]:
+            ci[n] = (math.exp(max(lo, -700.0)), math.exp(min(hi, 700.0)))
+            std[n] = s * float(values[n])
+        else:
+            b_lo, b_hi = bounds.get(n, (-math.inf, math.inf))
+            ci[n] = (max(float(lo * cov.scale[i]), b_lo), min(float(hi * cov.scale[i]), b_hi))
+            std[n] = s * cov.scale[i]
+    return ci, std
 
 
 def _linear_fit(prob: Problem, p, u_ref: float
