@@ -31,7 +31,6 @@ from .grading import (
     grade,
     information_criteria,
     no_usable_model,
-    noise_bar,
     per_step,
     recommend,
 )
@@ -40,7 +39,7 @@ from .metrics import mse
 from .outliers import without_outliers
 from .parallel import Workers, spread, worth_spreading
 from .record import Record
-from .refine import RefineOptions, event_states, held_out_events, widened
+from .refine import RefineOptions, event_states, held_out_events, noise_bar, widened
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
 from .tuning import RecordTuning, TuningOptions, model_trust, tune

@@ -111,3 +111,4 @@ def test_both_modes_widen_alike(events):
     assert fit.ci95.keys() == base.ci95.keys()
     for n, (lo, hi) in fit.ci95.items():
         assert (lo, hi) == pytest.approx(base.ci95[n], rel=1e-9)
+

@@ -11,7 +11,6 @@ log, the closed-loop check, and the recommended model.
 """
 
 from .consistency import per_step, static_map_note
-from .heldout import noise_bar
 from .recommendation import (
     CRITERION_COLUMNS,
     CRITERION_NAMES,
@@ -23,5 +22,5 @@ from .recommendation import (
 from .verdicts import FLAGS, grade, no_usable_model, record_verdict
 
 __all__ = ["CRITERION_COLUMNS", "CRITERION_NAMES", "FLAGS", "criterion", "grade",
-           "information_criteria", "no_usable_model", "noise_bar", "per_step", "ranked",
+           "information_criteria", "no_usable_model", "per_step", "ranked",
            "recommend", "record_verdict", "static_map_note"]

@@ -18,41 +18,17 @@ import math
 
 import numpy as np
 
-from ..events import Event
 from ..fit import Fit, Flag
 from ..record import Record
-from ..refine import held_out_events
+from ..refine import MISFIT_RATIO, held_out_events, noise_bar, own_rms
 from ..results import RecordResult
 from .determinacy import heldout_spread
-
-#: A model whose RMS misfit is this many noise sigmas off explains the data structurally
-#: wrong (with the right structure the misfit is the noise: ratio ~1).
-MISFIT_RATIO = 3.0
 
 
 def output_unit(rec: Record) -> str:
     """The output's unit as a message writes it after a number (``" degC"``), or ``""``."""
     u = rec.units.get("output")
     return f" {u}" if u else ""
-
-
-def own_rms(fit: Fit) -> float:
-    """The RMS error of a fit on its own identification data: a refinement's fit error
-    (its offset and state estimated), else the reading simulated on its event."""
-    mse = fit.refinement.mse_fit if fit.is_refined else fit.metrics.get(
-        "mse_identification", math.nan)
-    return math.sqrt(mse) if math.isfinite(mse) and mse >= 0 else math.nan
-
-
-def noise_bar(fit: Fit, held: list[Event]) -> float:
-    """The held-out RMS error that noise can explain for ``fit``: :data:`MISFIT_RATIO`
-    times the larger of the held-out events' mean noise and the fit's own error
-    (:func:`validation_misfit`'s first bar, before the best refinement's floor, which
-    needs every fit). :func:`pipeline.refine.heldout_noise.widened` reads held-out
-    residuals beyond it as misfit, not noise."""
-    noise = float(np.mean([e.noise for e in held])) if held else 0.0
-    own = own_rms(fit)
-    return MISFIT_RATIO * max(noise, own if math.isfinite(own) else 0.0)
 
 
 def fit_floor(fit: Fit, result: RecordResult) -> float:

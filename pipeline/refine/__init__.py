@@ -22,10 +22,11 @@ from .event import (
     summary,
     unchanged,
 )
-from .heldout_noise import widened
+from .heldout_noise import MISFIT_RATIO, noise_bar, own_rms, widened
 from .joint import fold_models, held_out_events, span_fit
 from .refinement import MIN_DOF, Refinement, RefineOptions, refine
 
-__all__ = ["MIN_DOF", "RefineOptions", "Refinement", "baseline_drift", "carry_source",
-           "event_states", "fold_models", "held_out_events", "mismatch", "refine",
-           "refine_event", "span_fit", "summary", "unchanged", "widened"]
+__all__ = ["MIN_DOF", "MISFIT_RATIO", "RefineOptions", "Refinement", "baseline_drift",
+           "carry_source", "event_states", "fold_models", "held_out_events", "mismatch",
+           "noise_bar", "own_rms", "refine", "refine_event", "span_fit", "summary",
+           "unchanged", "widened"]

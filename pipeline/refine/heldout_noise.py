@@ -27,6 +27,11 @@ kept at least the fit's own (the floor where the held-out stretch is short or qu
 and the fit's own covariance is kept beside (``covariance_fit``): the held-out misfit
 check must not be judged against a spread that the misfit itself widened.
 
+Only a one-event fit is widened. A fit over several events would read its
+cross-validation folds' residuals, which hold each fold model's own error, step-shaped
+like the gain's sensitivity: under white noise that widened the gain's interval by a
+median 1.38 in standard deviation where it covered the truth already (BENCHMARKS.md).
+
 Measured (``python benchmarks/interval_coverage.py --seeds 30``, 600 gain intervals per
 noise colour, BENCHMARKS.md): the gain covered under 1/f noise in 73.2 % before, 93.2 %
 after (AR(1) 94.8 % to 97.8 %, white 95.8 % to 99.0 %); with the generator's own
@@ -40,6 +45,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..events import Event
 from ..fit import Fit, ParameterCovariance
 from .event import JACOBIAN_INTERVALS
 from .refinement import intervals
@@ -48,9 +54,33 @@ from .refinement import intervals
 #: ``lags``, for an autocovariance to widen by.
 MIN_HELDOUT = 32
 
+#: A model whose RMS misfit is this many noise sigmas off explains the data structurally
+#: wrong (with the right structure the misfit is the noise: ratio ~1); below it held-out
+#: residuals are read as noise (:func:`noise_bar`; ``validation_misfit`` flags beyond).
+MISFIT_RATIO = 3.0
+
 #: How the intervals were made when the held-out residuals widened them.
 WIDENED_INTERVALS = ("Jacobian, scaled by the residuals' effective sample size, widened by "
                      "the held-out residuals' autocovariance")
+
+
+def own_rms(fit: Fit) -> float:
+    """The RMS error of a fit on its own identification data: a refinement's fit error
+    (its offset and state estimated), else the reading simulated on its event."""
+    mse = fit.refinement.mse_fit if fit.is_refined else fit.metrics.get(
+        "mse_identification", math.nan)
+    return math.sqrt(mse) if math.isfinite(mse) and mse >= 0 else math.nan
+
+
+def noise_bar(fit: Fit, held: list[Event]) -> float:
+    """The held-out RMS error that noise can explain for ``fit``: :data:`MISFIT_RATIO`
+    times the larger of the held-out events' mean noise and the fit's own error
+    (``validation_misfit``'s first bar, :mod:`pipeline.grading.heldout`, before the best
+    refinement's floor, which needs every fit). :func:`widened` reads held-out residuals
+    beyond it as misfit, not noise."""
+    noise = float(np.mean([e.noise for e in held])) if held else 0.0
+    own = own_rms(fit)
+    return MISFIT_RATIO * max(noise, own if math.isfinite(own) else 0.0)
 
 
 def heldout_autocovariance(idx: np.ndarray, e: np.ndarray, samples: int, lags: int
@@ -108,8 +138,7 @@ def widened(fit: Fit, idx: np.ndarray, e: np.ndarray, noise_rms: float) -> Fit:
     held-out residuals ``e`` (see the module docstring), each variance at least the fit's
     own; the fit itself where it has no sensitivity rows, the residuals do not give an
     autocovariance, or their RMS is beyond ``noise_rms``: what noise can explain
-    (:data:`pipeline.grading.heldout.MISFIT_RATIO` times the larger of the held-out
-    events' noise and the fit's own error, the held-out misfit check's first bar).
+    (:func:`noise_bar`, the held-out misfit check's first bar).
     Beyond it the held-out residuals are the model's misfit, not noise (a gain that
     changes with the operating point), which ``validation_misfit`` names; the intervals
     then say what the fit's own event determines. The transient sensitivity is dropped
