@@ -60,7 +60,12 @@ def response_band(fit: Fit, horizon: float) -> float | None:
                 curves.append(ProcessModel(model.structure, p).unit_step(t))
             except (ValueError, ZeroDivisionError, FloatingPointError, OverflowError):
                 return math.inf
-        lo, hi = np.nanquantile(np.array(curves), [0.025, 0.975], axis=0)
+        a = np.array(curves)
+        # the same quantiles: numpy's nanquantile takes 20x plain quantile's time on
+        # (200, 101) curves (a loop over columns): 4 % of `--events all` on a 100 k-sample,
+        # 20-event log
+        lo, hi = (np.quantile(a, [0.025, 0.975], axis=0) if not np.isnan(a).any() else
+                  np.nanquantile(a, [0.025, 0.975], axis=0))
     half = float(np.max((hi - lo) / 2.0)) / scale
     return half if math.isfinite(half) else math.inf
 
