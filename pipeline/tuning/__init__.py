@@ -10,6 +10,8 @@
 - :mod:`.loop` - the tuned loop simulated: setpoint and load steps, actuator limits,
   back-calculation anti-windup;
 - :mod:`.tuner` - all of it for one model: :func:`tune` -> :class:`Tuning` with a verdict;
+- :mod:`.overshoot` - PI settings without a model, from one closed-loop setpoint step
+  under P control (the setpoint overshoot method);
 - :mod:`.doc` - a record's tuning (:class:`RecordTuning`) as results.json carries it.
 """
 
@@ -17,6 +19,7 @@ from .controller import CONTROLLER_KINDS, Controller, ControllerKind
 from .doc import UNTRUSTED_FLAGS, RecordTuning, model_trust, tuning_doc
 from .loop import LoopResponse, Pid, StepMetrics, simulate_loop
 from .margins import Margins, loop_margins, sensitivity_peaks
+from .overshoot import OvershootTest, read_setpoint_step, setpoint_overshoot_pi
 from .reduction import Reduced, reduce, reduce_lags
 from .robust import WorstCase, parameter_sets, worst_case
 from .rules import RULE_NAMES, TAU_C_FACTORS, KindChoice, RuleName, RuleSettings, tune_rule
@@ -35,8 +38,10 @@ from .tuner import (
 
 __all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_FACTORS",
            "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm",
-           "ControllerKind", "KindChoice", "LoopResponse", "Margins", "Pid", "RecordTuning",
+           "ControllerKind", "KindChoice", "LoopResponse", "Margins", "OvershootTest", "Pid",
+           "RecordTuning",
            "Reduced", "RuleName", "RuleSettings", "StepMetrics", "TimeUnit", "Tuning",
            "TuningOptions", "TuningVerdict", "WorstCase", "loop_margins", "model_trust",
-           "nominal_margins", "parameter_sets", "reduce", "reduce_lags", "sensitivity_peaks",
-           "simulate_loop", "tune", "tune_rule", "tuning_doc", "worst_case"]
+           "nominal_margins", "parameter_sets", "read_setpoint_step", "reduce", "reduce_lags",
+           "sensitivity_peaks", "setpoint_overshoot_pi", "simulate_loop", "tune", "tune_rule",
+           "tuning_doc", "worst_case"]
