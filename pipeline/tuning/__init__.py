@@ -12,6 +12,7 @@
 - :mod:`.tuner` - all of it for one model: :func:`tune` -> :class:`Tuning` with a verdict;
 - :mod:`.overshoot` - PI settings without a model, from one closed-loop setpoint step
   under P control (the setpoint overshoot method);
+- :mod:`.running` - the running controller's settings read off its log (r, y, u);
 - :mod:`.doc` - a record's tuning (:class:`RecordTuning`) as results.json carries it.
 """
 
@@ -23,6 +24,7 @@ from .overshoot import OvershootTest, read_setpoint_step, setpoint_overshoot_pi
 from .reduction import Reduced, reduce, reduce_lags
 from .robust import WorstCase, parameter_sets, worst_case
 from .rules import RULE_NAMES, TAU_C_FACTORS, KindChoice, RuleName, RuleSettings, tune_rule
+from .running import RunningController, identify_controller
 from .tuner import (
     FRAGILE_MS,
     MS_TARGET,
@@ -37,11 +39,11 @@ from .tuner import (
 )
 
 __all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_FACTORS",
-           "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm",
-           "ControllerKind", "KindChoice", "LoopResponse", "Margins", "OvershootTest", "Pid",
-           "RecordTuning",
-           "Reduced", "RuleName", "RuleSettings", "StepMetrics", "TimeUnit", "Tuning",
-           "TuningOptions", "TuningVerdict", "WorstCase", "loop_margins", "model_trust",
-           "nominal_margins", "parameter_sets", "read_setpoint_step", "reduce", "reduce_lags",
-           "sensitivity_peaks", "setpoint_overshoot_pi", "simulate_loop", "tune", "tune_rule",
-           "tuning_doc", "worst_case"]
+           "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm", "ControllerKind",
+           "KindChoice", "LoopResponse", "Margins", "OvershootTest", "Pid", "RecordTuning",
+           "Reduced", "RuleName", "RuleSettings", "RunningController", "StepMetrics", "TimeUnit",
+           "Tuning", "TuningOptions", "TuningVerdict", "WorstCase", "identify_controller",
+           "loop_margins", "model_trust", "nominal_margins", "parameter_sets",
+           "read_setpoint_step", "reduce", "reduce_lags", "sensitivity_peaks",
+           "setpoint_overshoot_pi", "simulate_loop", "tune", "tune_rule", "tuning_doc",
+           "worst_case"]
