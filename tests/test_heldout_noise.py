@@ -83,7 +83,8 @@ def test_gain_covered_under_pink_noise():
 
 def test_white_noise_keeps_its_width():
     """The must-stay twin: white noise is what the fit's residuals already show, so the
-    held-out residuals widen the gain's interval by little, and it still covers."""
+    held-out residuals widen the gain's interval by little, and it still covers (measured:
+    median 1.0, the fit's own floor; 90th percentile 1.38)."""
     fits = _fits("white", 20)
     assert _covered(fits) >= 0.9
     ratios = []
@@ -91,24 +92,25 @@ def test_white_noise_keeps_its_width():
         cov = f.refinement.covariance_fit or f.refinement.covariance
         k = cov.names.index("K")
         ratios.append(math.sqrt(f.refinement.covariance.matrix[k][k] / cov.matrix[k][k]))
-    assert float(np.median(ratios)) <= 1.25
+    assert float(np.median(ratios)) <= 1.05
+    assert float(np.percentile(ratios, 90)) <= 1.6
 
 
-@pytest.mark.parametrize("events", [(0,), "all"])
-def test_both_modes_widen_alike(events):
+def test_both_modes_widen_alike():
     """``--events 0`` validates on the other events, ``--events all`` cross-validates on
     them: event 0's refinement gets the same intervals either way (one verdict per model,
     item 3)."""
     rec = mc_record(PLANTS["fopdt_delay0.5"], Condition("pink", 0.02, 4.0), 3)
-    res = analyse(rec, AnalysisOptions(methods=("lsq_first_order",), consistency=False,
-                                       tuning=None, events=events))
-    fit = next(f for f in res.fits if f.method == "lsq_first_order" and f.event == 0
-               and not f.events)
-    ref = analyse(rec, AnalysisOptions(methods=("lsq_first_order",), consistency=False,
-                                       tuning=None, events=(0,)))
-    base = next(f for f in ref.fits if f.method == "lsq_first_order" and f.event == 0)
-    assert fit.refinement.interval_method == WIDENED_INTERVALS
-    assert fit.ci95.keys() == base.ci95.keys()
-    for n, (lo, hi) in fit.ci95.items():
-        assert (lo, hi) == pytest.approx(base.ci95[n], rel=1e-9)
-
+    fits = []
+    for events in ((0,), "all"):
+        res = analyse(rec, AnalysisOptions(methods=("lsq_first_order",), consistency=False,
+                                           tuning=None, events=events))
+        fits.append(next(f for f in res.fits if f.method == "lsq_first_order"
+                         and f.event == 0 and not f.events))
+    one, crossed = fits
+    assert one.refinement.interval_method == WIDENED_INTERVALS
+    assert crossed.refinement.interval_method == WIDENED_INTERVALS
+    assert crossed.ci95.keys() == one.ci95.keys()
+    for n, (lo, hi) in crossed.ci95.items():
+        assert (lo, hi) == pytest.approx(one.ci95[n], rel=1e-9)
+    assert one.refinement.covariance_fit is not None

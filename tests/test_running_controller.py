@@ -43,6 +43,7 @@ def test_settings_within_5_percent(plant, kind, detune):
         if td:
             assert c.Td == pytest.approx(td, rel=0.05)
         assert got.residual_share < 1e-6  # the bench's controller is the one assumed
+        assert got.converged
 
 
 def test_velocity_form_pi_is_read_the_same():

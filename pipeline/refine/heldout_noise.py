@@ -50,8 +50,8 @@ from ..fit import Fit, ParameterCovariance
 from .event import JACOBIAN_INTERVALS
 from .refinement import intervals
 
-#: Held-out samples at least, and at least this many times the rows' lag count over
-#: ``lags``, for an autocovariance to widen by.
+#: Held-out rows (samples, or blocks of as many as a criterion row holds) at least for an
+#: autocovariance to widen by.
 MIN_HELDOUT = 32
 
 #: A model whose RMS misfit is this many noise sigmas off explains the data structurally
@@ -91,7 +91,7 @@ def heldout_autocovariance(idx: np.ndarray, e: np.ndarray, samples: int, lags: i
     the lag products pooled over runs and divided by the rows in all (the biased
     estimator: positive semi-definite); None when too few or not finite."""
     idx, e = np.asarray(idx), np.asarray(e, np.float64)
-    if e.size < max(MIN_HELDOUT, samples) or not np.all(np.isfinite(e)):
+    if e.size < MIN_HELDOUT * samples or not np.all(np.isfinite(e)):
         return None
     cuts = np.flatnonzero(np.diff(idx) != 1) + 1
     acov = np.zeros(lags)
@@ -107,7 +107,7 @@ def heldout_autocovariance(idx: np.ndarray, e: np.ndarray, samples: int, lags: i
         f = np.fft.rfft(x, size)
         acov[:k] += np.fft.irfft(f * np.conj(f), size)[:k]
         rows += m
-    if rows < MIN_HELDOUT // samples + 2 or not acov[0] > 0:
+    if rows < MIN_HELDOUT or not acov[0] > 0:
         return None
     return acov / rows
 

@@ -34,8 +34,12 @@ from .controller import Controller
 #: The paper's estimate of the steady change from the peak and the first undershoot
 #: when the loop is not left to settle (eq. 18).
 SETTLE_FROM_SWING = 0.45
-#: The share of the window the peak is read over where the record is noisy.
-PEAK_SMOOTHING = 0.02
+#: The share of the rise (samples to the first crossing of the steady level) the peak
+#: and the undershoot are smoothed over where the record is noisy.
+PEAK_SMOOTHING = 0.2
+#: The response has turned up from its undershoot once it is this many noise standard
+#: deviations above its lowest point since the peak (a wiggle of the noise is not a turn).
+BAND_SIGMAS = 3.0
 #: The overshoots the correlation was derived for (the paper's recommended test range).
 OVERSHOOT_RANGE = (0.1, 0.6)
 
@@ -81,16 +85,18 @@ def read_setpoint_step(t, y, t_step: float, dys: float, kc0: float, *, settled: 
     sign = math.copysign(1.0, dys)
     dy = sign * (y[after] - float(np.mean(y[before])))
     ta = t[after] - t_step
+    tail = max(dy.size // 10, 1)
     # the peak and the undershoot of the response, not of the noise on it: read off a
-    # Savitzky-Golay smoothing over 2 % of the window where the record is noisy
-    curve = smooth(dy, noise_sigma(dy), PEAK_SMOOTHING)
+    # Savitzky-Golay smoothing where the record is noisy, over a share of the rise (the
+    # samples until the output first reaches its last tenth's level), not of the window:
+    # a long settled tail must not flatten the peak
+    sigma = noise_sigma(dy)
+    reached = np.flatnonzero(dy >= float(np.mean(dy[-tail:])))
+    rise = int(reached[0]) if reached.size else dy.size
+    curve = smooth(dy, sigma, min(PEAK_SMOOTHING * rise / dy.size, 0.5))
     k = int(np.argmax(curve))
     dyp = float(curve[k])
-    rest = curve[k:]
-    # the first undershoot: the minimum before the response rises again past its mean
-    turn = np.flatnonzero(np.diff(rest) > 0)
-    dyu = float(rest[: turn[0] + 1].min()) if turn.size and turn[0] > 0 else None
-    tail = max(dy.size // 10, 1)
+    dyu = _undershoot(curve[k:], BAND_SIGMAS * sigma)
     if k >= dy.size - tail:
         raise ValueError("the P loop's setpoint response does not overshoot (it peaks at "
                          "the window's end): raise Kc0 until it overshoots by 10-60 %")
@@ -107,21 +113,33 @@ def read_setpoint_step(t, y, t_step: float, dys: float, kc0: float, *, settled: 
     return OvershootTest(float(kc0), abs(float(dys)), dyp, float(ta[k]), dyu, dyinf)
 
 
+def _undershoot(after_peak: np.ndarray, band: float) -> float | None:
+    """The first undershoot of a response from its peak on: the lowest point before the
+    response turns up by more than ``band`` (None when the window ends before it does)."""
+    low = np.minimum.accumulate(after_peak)
+    up = np.flatnonzero(after_peak > low + max(band, 0.0))
+    if not up.size or up[0] == 0:
+        return None
+    return float(low[up[0]])
+
+
 def setpoint_overshoot_pi(test: OvershootTest, detune: float = 1.0) -> Controller:
     """PI settings (ideal form) from :func:`read_setpoint_step`'s reading, eqs. (15)-(17) of the
     module docstring; ``detune`` is the paper's ``F``. Raises ValueError for an overshoot
-    outside :data:`OVERSHOOT_RANGE` or an offset ratio of 1 or more (the loop has integral
-    action already)."""
+    outside :data:`OVERSHOOT_RANGE` or an output that did not follow the setpoint."""
     d, b = test.overshoot, test.offset_ratio
     lo, hi = OVERSHOOT_RANGE
     if not lo <= d <= hi:
         raise ValueError(f"the overshoot is {d:.0%}: the method's correlation holds for "
                          f"{lo:.0%}-{hi:.0%} (about 30 % is best); repeat the step with Kc0 "
                          f"{'raised' if d < lo else 'lowered'}")
-    if not 0 < b < 1:
-        raise ValueError(f"the steady change is {b:.3g} of the setpoint's: a P loop leaves "
-                         "an offset (below 1); this loop does not")
+    if not b > 0:
+        raise ValueError(f"the steady change is {b:.3g} of the setpoint's: the output did "
+                         "not follow the setpoint")
     a = 1.152 * d * d - 1.607 * d + 1.0
     kc = test.kc0 * a / detune
-    ti = min(0.86 * a * abs(b / (1.0 - b)) * test.tp, 2.44 * test.tp * detune)
+    # an integrating process leaves no offset (b = 1): the first term is unbounded and
+    # the second sets Ti, as it does for any b near 1
+    first = 0.86 * a * abs(b / (1.0 - b)) * test.tp if b != 1 else math.inf
+    ti = min(first, 2.44 * test.tp * detune)
     return Controller.ideal(kc, ti)

@@ -13,10 +13,13 @@ measurement (no derivative kick), filtered by ``Tf = Td / N`` (Åström & Häggl
 Given the filter's ``Tf`` the output is linear in ``(u_b, Kc, Kc/Ti, Kc Td)``: ordinary
 least squares on the regressors ``1, e, sum h e, g`` with ``g`` the filtered derivative
 of unit gain. ``Tf`` follows ``Td``, so the fit is iterated from the unfiltered
-derivative until ``Td`` moves by less than 1e-9 of itself (a fixed point: the filter is
-ten times faster than the derivative it smooths). The kind is the simplest the log
-supports: the derivative and the integral terms are kept where their coefficients are
-beyond :data:`Z_TERM` standard errors. Standard errors are the least-squares ones scaled by
+derivative until ``Td`` moves by less than 1e-9 of itself or of the sample time (a
+fixed point: the filter is ten times faster than the derivative it smooths; a
+controller whose filter is ``min(Td, Ti) / N``, as
+:meth:`pipeline.tuning.controller.Controller.ideal` makes it, is read the same unless
+``Ti < Td``). The kind is the simplest the log supports: the derivative and the
+integral terms are kept where their coefficients are beyond :data:`Z_TERM` standard
+errors. Standard errors are the least-squares ones scaled by
 the residuals' long-run variance factor (:func:`pipeline.uncertainty.variance_factor`);
 ``Ti`` and ``Td`` are ratios, their standard errors by the delta method.
 """
@@ -43,12 +46,17 @@ class RunningController:
     """The settings read off a log: the controller (ideal form), the standard errors of
     ``Kc``, ``Ti``, ``Td`` (absent terms: none), the output bias ``u_b`` and the RMS of
     what the settings do not explain (quantisation, output limits, a different
-    discretisation), relative to the controller output's standard deviation."""
+    discretisation), relative to the controller output's standard deviation;
+    ``converged``: whether the derivative filter's fixed point was reached within
+    :data:`MAX_FILTER_ITERATIONS` (the settings are the last iterate's otherwise). The
+    standard errors take the filter as known: ``Td``'s is somewhat too small where the
+    filter matters."""
 
     controller: Controller
     std: dict[str, float]
     bias: float
     residual_share: float
+    converged: bool = True
 
 
 def _filtered_derivative(y: np.ndarray, h: float, tf: float) -> np.ndarray:
@@ -87,13 +95,15 @@ def identify_controller(t, r, y, u, *, filter_n: float = DERIVATIVE_FILTER_N
                          "read the controller from")
     integral = np.r_[0.0, np.cumsum(h * e[:-1])]
     ones = np.ones(t.size)
-    td, kept = 0.0, None
+    td, kept, converged = 0.0, None, False
     for _ in range(MAX_FILTER_ITERATIONS):
         g = _filtered_derivative(y, h, td / filter_n)
         c, cov, res = _solve([ones, e, integral, g], u)
         new = c[3] / c[1] if c[1] != 0 else 0.0
         kept = (c, cov, res, g)
-        if not new > 0 or abs(new - td) <= 1e-9 * max(new, 1e-300):
+        if not new > 0 or abs(new - td) <= 1e-9 * max(new, h):  # (a Td of 1e-9 sample
+            # times is no derivative: a PI's rounding-level Kd converges there)
+            converged = True
             break
         td = new
     c, cov, res, g = kept
@@ -126,4 +136,4 @@ def identify_controller(t, r, y, u, *, filter_n: float = DERIVATIVE_FILTER_N
     spread = float(np.std(u))
     share = float(np.sqrt(np.mean(res * res))) / spread if spread > 0 else 0.0
     return RunningController(Controller.ideal(kc, ti, td, n=filter_n), std, float(c[0]),
-                             share)
+                             share, converged)
