@@ -27,13 +27,7 @@ import numpy as np
 
 from .events import EventData
 from .fit import Fit
-from .grading import (
-    grade,
-    information_criteria,
-    no_usable_model,
-    per_step,
-    recommend,
-)
+from .grading import grade, information_criteria, no_usable_model, per_step, recommend
 from .methods import REGISTRY, event_fit, identify, select_methods, span_refinement
 from .metrics import mse
 from .outliers import without_outliers

@@ -341,7 +341,7 @@ def intervals(structure: str, cov: ParameterCovariance, values: Mapping[str, flo
         zi, s = cov.z[i], float(sd[i])
         lo, hi = zi - q * s, zi + q * s
         if n == "K":
-            ci[n], std[n] = (zi - q * s, zi + q * s), s
+            ci[n], std[n] = (lo, hi), s
         elif cov.log[i]:
             ci[n] = (math.exp(max(lo, -700.0)), math.exp(min(hi, 700.0)))
             std[n] = s * float(values[n])
