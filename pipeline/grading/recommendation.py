@@ -14,7 +14,9 @@ anything with its ``record``, ``events``, ``fits``, ``validation_events`` and
 2. Each structure is represented by its least-squares refinement (fitted to all the
    identification data, with intervals), unless a graphical model of that structure is
    better by more than the uncertainty (Bonferroni-corrected for their number,
-   :data:`LEVEL`: the refinement missed). Across structures the lowest wins, unless a
+   :data:`LEVEL`) and fits their event closer (:func:`missed`: the refinement missed).
+   Where no refinement is left a reading can be the answer; else it never is
+   (:func:`candidates`). Across structures the lowest wins, unless a
    simpler structure (fewer parameters in the structure table) is not worse by more than
    :data:`Z_STRUCTURE` standard errors, or predicts the same within a quarter of the noise
    (:func:`equivalent`: a more complex structure that nests it wins such ties only by
@@ -194,9 +196,11 @@ def candidates(result, crit: str) -> list[Fit]:
     determined one fits within the noise (:func:`fits_within_noise`): the more complex
     model must earn its parameters, and a model that cannot be trusted is never the answer
     while another can; no integrating model of a record whose responses settle while a
-    self-regulating one is left (``no_integrating_evidence``). A graphical reading stays a
-    candidate: it stands for its structure where the structure's refinement missed
-    (:func:`_representative`)."""
+    self-regulating one is left (``no_integrating_evidence``). A graphical reading (no
+    intervals) is a candidate only while no refinement is, or where the refinement of its
+    structure missed on their event (:func:`missed`): the recommended model carries
+    intervals wherever a refinement is left (issue 27 item 1); a reading of a structure
+    whose refinement was set aside (undetermined, unreliable) does not stand in for it."""
     fits = [f for f in result.fits if f.ok and f.model is not None
             and math.isfinite(f.metrics.get(crit, math.nan))]
     usable = [f for f in fits if f.verdict != "unreliable"]
@@ -204,7 +208,12 @@ def candidates(result, crit: str) -> list[Fit]:
     evident = [f for f in fits if not _flagged(f, "no_integrating_evidence")]
     fits = evident or fits
     within = [f for f in fits if not undetermined(f) and fits_within_noise(f)]
-    return [f for f in fits if not undetermined(f)] if within else fits
+    fits = [f for f in fits if not undetermined(f)] if within else fits
+    refined = [f for f in fits if f.is_refined]
+    if not refined:
+        return fits
+    return refined + [g for g in fits if not g.is_refined and any(
+        missed(f, g) for f in refined if f.model.structure == g.model.structure)]
 
 
 def earns_parameters(complex_: Fit, simple: Fit, level: float = LEVEL) -> bool:
@@ -356,12 +365,26 @@ def _representative(group: list[Candidate], noise: float, level: float, result
     if not lsq:
         return graph[0]
     rep = min(lsq, key=lambda c: c.error)
-    graph = [c for c in graph if _rank(c.fit) <= _rank(rep.fit)]
+    graph = [c for c in graph if _rank(c.fit) <= _rank(rep.fit) and missed(rep.fit, c.fit)]
     if graph and graph[0].error < rep.error:
         diff, se = paired_difference(loaded(rep, result), loaded(graph[0], result), noise)
         if diff > float(stats.norm.ppf(1 - level / (2 * len(graph)))) * se:
             return graph[0]
     return rep
+
+
+def missed(refined: Fit, reading: Fit) -> bool:
+    """Whether the refinement ``refined`` missed on its own data: a graphical ``reading``
+    of its structure and event simulates that event closer to the measurement
+    (``mse_identification``). Only then can the reading stand for the structure: a
+    refinement is the least-squares optimum from starts that include the reading, so
+    where the reading validates better while fitting its own event worse, that is the
+    luck of the held-out noise (or a bias the reading shares with no other data), and the
+    answer keeps the refinement's intervals (issue 27 item 1)."""
+    a = refined.metrics.get("mse_identification", math.nan)
+    b = reading.metrics.get("mse_identification", math.nan)
+    return refined.event == reading.event and math.isfinite(a) and math.isfinite(b) \
+        and b < a
 
 
 def measurement_noise(result, idx: np.ndarray) -> float:
