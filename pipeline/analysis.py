@@ -36,7 +36,7 @@ from .record import Record
 from .refine import RefineOptions, event_states, held_out_events, noise_bar, widened
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
-from .tuning import RecordTuning, TuningOptions, model_trust, tune
+from .tuning import RecordTuning, TuningOptions, model_trust, read_loop, tune
 from .validate import heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
@@ -77,7 +77,10 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     """
     opt = options or AnalysisOptions()
     record = without_outliers(record)  # a glitch is named (outlier_samples), not fitted
-    base = RecordResult(name=name or record.name, source=record.source, record=record)
+    base = RecordResult(name=name or record.name, source=record.source, record=record,
+                        loop=None if record.r is None else read_loop(
+                            record.t, record.r, record.y, record.u,
+                            setpoint=record.setpoint_name or "r"))
     events = segment(record, opt.segmentation)
     if not events:
         return replace(base, error=no_event_message(record))

@@ -39,6 +39,10 @@ class Record:
     #: output samples taken as single-sample outliers and replaced for the analysis:
     #: ``(row, value read, value used)`` (:func:`pipeline.outliers.without_outliers`)
     outliers: tuple[tuple[int, float, float], ...] = ()
+    #: the setpoint of a closed loop whose controller output is the input (``data.setpoint``,
+    #: :func:`with_setpoint`): read-only, as long as ``t``; None for an open-loop test
+    r: np.ndarray | None = None
+    setpoint_name: str | None = None
 
     @property
     def n_samples(self) -> int:
@@ -204,3 +208,17 @@ def _check_values(a: np.ndarray, label: str, source: str, signal: bool = True) -
             f"{LARGEST_VALUE:.0e} overflow the squared errors of a fit: scale the signal "
             "(e.g. a unit with a larger prefix)"
         )
+
+
+def with_setpoint(record: Record, r, name: str) -> Record:
+    """``record`` with the setpoint ``r`` (a closed loop's, sampled at ``record.t``) named
+    ``name``: checked as the input and output are (:func:`make_record`), held read-only."""
+    from dataclasses import replace
+
+    r = np.array(r, dtype=np.float64, copy=True)
+    if r.shape != record.t.shape:
+        raise UserError(f"{record.source}: the setpoint '{name}' has {r.size} samples and "
+                        f"the log {record.t.size}; expected one per time stamp")
+    _check_values(r, name, record.source)
+    r.setflags(write=False)
+    return replace(record, r=r, setpoint_name=name)

@@ -38,7 +38,7 @@ from .schema import (
     TransferFunctionDoc,
     fit_label,
 )
-from .tuning import RecordTuning, tuning_doc
+from .tuning import LoopReading, RecordTuning, running_loop_doc, tuning_doc
 from .version import __version__
 
 
@@ -115,6 +115,7 @@ class RecordResult:
     flags: tuple[Flag, ...] = ()  # findings about the whole log (grading)
     consistency: Consistency | None = None  # each step on its own (pipeline.grading)
     tuning: RecordTuning | None = None  # the controller tuned from the recommended model
+    loop: LoopReading | None = None  # a closed-loop log's controller, read with its setpoint
 
     @property
     def ok(self) -> bool:
@@ -159,6 +160,7 @@ class RecordResult:
             flags=[flag_doc(x) for x in self.flags],
             consistency=consistency_doc(self.consistency),
             tuning=tuning_doc(self.tuning),
+            running_loop=running_loop_doc(self.loop),
             errors=[self.error] if self.error else [],
         )
 

@@ -343,6 +343,35 @@ class TuningDoc(_Doc):
     worst_response: LoopDoc | None = None
 
 
+class SetpointStepDoc(_Doc):
+    """A setpoint step of a closed-loop log (s, the setpoint's unit) and the setpoint
+    overshoot method's PI settings from it (a loop under P control), or why none."""
+
+    time: float
+    change: float
+    overshoot: float | None = Field(None, description="D = (dyp - dyinf) / dyinf")
+    peak_time: float | None = Field(None, description="tp, s after the step")
+    offset_ratio: float | None = Field(None, description="b = dyinf / dys")
+    controller: ControllerDoc | None = None
+    reason: str | None = None
+
+
+class RunningLoopDoc(_Doc):
+    """A closed-loop log read with its setpoint (``data.setpoint``): the running
+    controller's settings with their standard errors, or why they could not be read,
+    and the setpoint steps."""
+
+    setpoint: str
+    controller: ControllerDoc | None = None
+    std: dict[str, float] = Field(default_factory=dict)
+    bias: float | None = Field(None, description="the controller output's bias u_b")
+    residual_share: float | None = Field(None, description="RMS the settings do not "
+                                         "explain, over the output's standard deviation")
+    converged: bool | None = None
+    reason: str | None = None
+    setpoint_steps: list[SetpointStepDoc] = Field(default_factory=list)
+
+
 class RecordDoc(_Doc):
     """One log: what was loaded, the events found, every fit, and the recommendation;
     ``flags`` are findings about the whole log (they are on every fit too)."""
@@ -369,6 +398,7 @@ class RecordDoc(_Doc):
     flags: list[FlagDoc] = Field(default_factory=list)
     consistency: ConsistencyDoc | None = None
     tuning: TuningDoc | None = None
+    running_loop: RunningLoopDoc | None = None
     errors: list[str] = Field(default_factory=list)
 
 

@@ -114,8 +114,8 @@ def test_a_key_of_another_format_is_one_line(name, key):
      "c.yaml: unknown key 'data.stamp_field' (did you mean 'stamp'?)"),
     ({"path": "logs/", "input": "u", "output": "y", "foo": 1},
      "c.yaml: unknown key 'data.foo'; check its spelling (the keys there: dataset, path, "
-     "paths, format, input, output, initial_input, units, trailing_lines, skip_rows, columns, "
-     "header, "
+     "paths, format, input, output, initial_input, setpoint, units, trailing_lines, "
+     "skip_rows, columns, header, "
      "duplicates, fill_gaps, long_gaps, unwrap, time, sample_time, time_unit, time_zone, "
      "time_format, delimiter, decimal, sheet, stamp, max_gap)"),
     ({"dataset": "daisy-heating", "colums": ["t", "u", "y"]},

@@ -64,12 +64,15 @@ DATA_OPTIONS: tuple[tuple[str, object, typer.models.OptionInfo], ...] = (
                                      "an angle: 360), unwrapped")),
     ("initial_input", float | None, _option("--initial-input", "input level before the "
                                             "first row")),
+    ("setpoint", str | None, _option("--setpoint", "a closed loop's setpoint column: the "
+                                     "input is then the controller output, and the "
+                                     "running controller is read off the log")),
     ("units", str | None, _option("--units", "units of the signals, e.g. input=V,output=degC "
                                   "(default: from the header, if it gives them)")),
 )
 
 #: the options that are not ``data:`` format keys
-_COMMON = ("input", "output", "format", "initial_input", "units")
+_COMMON = ("input", "output", "format", "initial_input", "setpoint", "units")
 
 
 def _units(text: str | None) -> dict[str, str] | None:
@@ -131,6 +134,8 @@ def data_config(file: Path, given: dict):
                           input=fmt.parse_signal(given["input"]),
                           output=fmt.parse_signal(given["output"]),
                           initial_input=given["initial_input"], units=_units(given["units"]),
+                          setpoint=None if given["setpoint"] is None else
+                          fmt.parse_signal(given["setpoint"]),
                           **keys)
     except ValidationError as exc:
         err0 = exc.errors()[0]

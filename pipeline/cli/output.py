@@ -235,6 +235,11 @@ def print_ranking(res) -> None:
                   f"[{VERDICT_STYLE['unreliable']}]unreliable[/]")
         for f in res.flags:
             out.print(f"  [{VERDICT_STYLE[f.severity]}]{f.code}[/] {escape(printable(f.message))}")
+    if res.loop is not None:
+        from ..report import running_loop_lines
+
+        for line in running_loop_lines(res.loop, res.record.units):
+            out.print(printable(line), markup=False)
     has_val = bool(res.validation_events)
     for i in res.identification_events:
         table = ranking_table(res, i)

@@ -64,7 +64,17 @@ CLOSED_LOOP_MIN_SAMPLES = 30
 
 def closed_loop_flag(record: Record, events: list[Event]) -> Flag | None:
     """``closed_loop_suspected`` when the input's sample-to-sample changes follow the
-    output's changes of the same sample, against them (see the module docstring)."""
+    output's changes of the same sample, against them (see the module docstring), and
+    always for a log that declares its setpoint (``data.setpoint``): its input is a
+    controller's output by the user's word."""
+    if record.r is not None:
+        return Flag(
+            "closed_loop_suspected",
+            f"The log declares its setpoint ('{record.setpoint_name}', data.setpoint): the "
+            "input is a controller's output, not a step test. The models are fitted from "
+            "the input to the output as in open loop (the direct approach), which is "
+            "biased where the measurement noise feeds back through the controller.",
+            {"declared": record.setpoint_name})
     du, dy = np.diff(record.u), np.diff(record.y)
     samples = int(np.count_nonzero((du != 0) | (dy != 0)))
     if samples < CLOSED_LOOP_MIN_SAMPLES or not np.any(du) or not np.any(dy) \

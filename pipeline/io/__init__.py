@@ -15,8 +15,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import UserError
-from ..record import Record
+from ..record import Record, with_setpoint
 from .base import DataSection, Format, SignalConfig
 from .datasets import dataset, fetch, load_registry, shown_source
 from .mcap import format_inspect, inspect_mcap
@@ -39,7 +41,8 @@ def load_record(path: Path, data: DataSection, name: str | None = None) -> Recor
         raise UserError(f"{path}: file not found")
     fmt = format_of(path, data.format)
     try:
-        return fmt.load(path, data, options_for(data, fmt, str(path)), name or path.stem)
+        record = fmt.load(path, data, options_for(data, fmt, str(path)), name or path.stem)
+        return record if data.setpoint is None else _with_setpoint(path, data, fmt, record)
     except BaseException as exc:
         # a native reader's panic (polars, pyo3: a BaseException, which no `except
         # Exception` stops) on a damaged file it does not check is the file's fault
@@ -47,6 +50,36 @@ def load_record(path: Path, data: DataSection, name: str | None = None) -> Recor
             raise
         raise UserError(f"{path}: the {fmt.name} reader failed on this file (a damaged "
                         f"file? {' '.join(str(exc).split())[:200]})") from None
+
+
+def _with_setpoint(path: Path, data: DataSection, fmt: Format, record: Record) -> Record:
+    """``record`` with the setpoint ``data.setpoint`` read from the same file: the file
+    loaded again with the setpoint as its input, by the same loader and policies (so every
+    format that reads an input reads a setpoint, and a row the policies drop or merge is
+    dropped or merged for both); the time stamps must come out the same."""
+    again = data.model_copy(update={"input": data.setpoint, "setpoint": None,
+                                    "initial_input": None})
+    try:
+        other = fmt.load(path, again, options_for(again, fmt, str(path)), record.name)
+    except UserError as exc:  # the loader names the column as the input's: say which key
+        raise UserError(f"{exc} (reading data.setpoint)") from None
+    if not np.array_equal(other.t, record.t):
+        raise UserError(f"{path}: data.setpoint {shown_signal(data.setpoint)} is read on "
+                        f"other time stamps ({other.t.size} rows) than the input "
+                        f"({record.t.size}); expected the setpoint logged beside the "
+                        "input and output")
+    if other.input_name == record.input_name:
+        raise UserError(f"{path}: data.setpoint {shown_signal(data.setpoint)} is the input "
+                        "itself; expected the closed loop's setpoint, and the controller "
+                        "output as the input")
+    return with_setpoint(record, other.u, other.input_name)
+
+
+def shown_signal(signal) -> str:
+    """A signal as a config names it: a column in quotes, or ``topic field``."""
+    if isinstance(signal, SignalConfig):
+        return f"{signal.topic} {signal.field}"
+    return repr(signal)
 
 
 __all__ = ["FORMATS", "SUFFIXES", "DataConfig", "Format", "Record", "SignalConfig", "check_file",

@@ -48,6 +48,9 @@ class DataSection(Strict):
     input: str | int | SignalConfig | None = None
     output: str | int | SignalConfig | None = None
     initial_input: float | None = None
+    setpoint: str | int | SignalConfig | None = Field(
+        None, description="a closed loop's setpoint, read like the input: the input is "
+        "then the controller output, and the controller's settings are read off the log")
     units: dict[Literal["time", "input", "output"], str] | None = None
 
     def unit_map(self) -> dict[str, str]:

@@ -15,6 +15,7 @@ _EXPORTS = {
     "fmt": "tables", "PARAMETERS_COLUMN": "tables",
     "ranking_table": "tables", "recommended_box": "tables",
     "response_text": "tables", "controller_lines": "controller",
+    "running_loop_lines": "running_loop",
 }
 
 __all__ = sorted(_EXPORTS)

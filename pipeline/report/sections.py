@@ -28,6 +28,7 @@ from .controller import (
     response_table,
     settings_table,
 )
+from .running_loop import running_loop_context
 from .tables import (
     consistency_table,
     display_model,
@@ -88,7 +89,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
            "source": shown_source(rec.source if rec else res.source),
            "notes": list(rec.notes) if rec else [], "events": None, "ident": [],
            "box": None, "ident_rest": None, "events_line": "", "record_flags": [],
-           "controller": None, "compare": None}
+           "controller": None, "compare": None, "running_loop": None}
     if rec is None:
         return ctx, files
     tu = rec.units.get("time")
@@ -104,6 +105,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     if mode == "full":
         ctx["compare"] = _compare(res, add, anchor, dpi)
     ctx["controller"] = controller_context(res, mode, add, anchor, dpi)
+    ctx["running_loop"] = running_loop_context(res.loop, rec.units)
     ctx["record_flags"] = [{"code": f.code, "message": f.message, "severity": f.severity}
                            for f in res.flags]
     ctx["events"] = events_table(res)

@@ -17,7 +17,8 @@
 """
 
 from .controller import CONTROLLER_KINDS, Controller, ControllerKind
-from .doc import UNTRUSTED_FLAGS, RecordTuning, model_trust, tuning_doc
+from .doc import UNTRUSTED_FLAGS, RecordTuning, model_trust, running_loop_doc, tuning_doc
+from .log_loop import LoopReading, SetpointStep, read_loop, setpoint_steps
 from .loop import LoopResponse, Pid, StepMetrics, simulate_loop
 from .margins import Margins, loop_margins, sensitivity_peaks
 from .overshoot import OvershootTest, read_setpoint_step, setpoint_overshoot_pi
@@ -39,11 +40,13 @@ from .tuner import (
 )
 
 __all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_FACTORS",
-           "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm", "ControllerKind",
-           "KindChoice", "LoopResponse", "Margins", "OvershootTest", "Pid", "RecordTuning",
-           "Reduced", "RuleName", "RuleSettings", "RunningController", "StepMetrics", "TimeUnit",
-           "Tuning", "TuningOptions", "TuningVerdict", "WorstCase", "identify_controller",
-           "loop_margins", "model_trust", "nominal_margins", "parameter_sets",
-           "read_setpoint_step", "reduce", "reduce_lags", "sensitivity_peaks",
-           "setpoint_overshoot_pi", "simulate_loop", "tune", "tune_rule", "tuning_doc",
+           "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm",
+           "ControllerKind", "KindChoice", "LoopReading", "LoopResponse", "Margins",
+           "OvershootTest", "Pid", "RecordTuning", "Reduced", "RuleName",
+           "RuleSettings", "RunningController", "SetpointStep", "StepMetrics",
+           "TimeUnit", "Tuning", "TuningOptions", "TuningVerdict", "WorstCase",
+           "identify_controller", "loop_margins", "model_trust", "nominal_margins",
+           "parameter_sets", "read_loop", "read_setpoint_step", "reduce", "reduce_lags",
+           "running_loop_doc", "sensitivity_peaks", "setpoint_overshoot_pi",
+           "setpoint_steps", "simulate_loop", "tune", "tune_rule", "tuning_doc",
            "worst_case"]

@@ -12,10 +12,13 @@ from ..schema import (
     MarginsDoc,
     ReducedDoc,
     ReplacedDoc,
+    RunningLoopDoc,
+    SetpointStepDoc,
     StepMetricsDoc,
     TuningDoc,
     WorstCaseDoc,
 )
+from .log_loop import LoopReading
 from .loop import LoopResponse, StepMetrics
 from .margins import Margins
 from .tuner import Tuning
@@ -154,3 +157,25 @@ def tuning_doc(rt: RecordTuning | None) -> TuningDoc | None:
         verdict=t.verdict, reasons=list(t.reasons), notes=list(t.notes),
         alternative=_alternative_doc(t), replaced=_replaced_doc(t),
         response=_loop_doc(t.response, rt), worst_response=_loop_doc(t.worst_response, rt))
+
+
+def running_loop_doc(reading: LoopReading | None) -> RunningLoopDoc | None:
+    """results.json's ``running_loop`` of a closed-loop log read with its setpoint."""
+    if reading is None:
+        return None
+    run = reading.running
+    steps = [SetpointStepDoc(
+        time=st.time, change=st.change,
+        overshoot=None if st.test is None else _num(st.test.overshoot),
+        peak_time=None if st.test is None else _num(st.test.tp),
+        offset_ratio=None if st.test is None else _num(st.test.offset_ratio),
+        controller=None if st.controller is None else _controller_doc(st.controller),
+        reason=st.reason) for st in reading.steps]
+    if run is None:
+        return RunningLoopDoc(setpoint=reading.setpoint, reason=reading.reason,
+                              setpoint_steps=steps)
+    return RunningLoopDoc(
+        setpoint=reading.setpoint, controller=_controller_doc(run.controller),
+        std={k: v for k, v in run.std.items() if math.isfinite(v)}, bias=_num(run.bias),
+        residual_share=_num(run.residual_share), converged=run.converged,
+        setpoint_steps=steps)

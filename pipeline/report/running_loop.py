@@ -1,0 +1,85 @@
+"""The report's "Running controller" section and its terminal lines: a closed-loop log
+read with its setpoint (:func:`pipeline.tuning.read_loop`): the settings of the
+controller that ran, with their standard errors, and the setpoint overshoot method's PI
+settings from each setpoint step of a loop under P control."""
+
+from __future__ import annotations
+
+import math
+
+from ..tuning import LoopReading
+from .tables import Cell, Table, fmt
+
+
+def _gain_unit(units: dict[str, str]) -> str:
+    return f" {units['input']}/{units['output']}" if units.get("input") and \
+        units.get("output") else ""
+
+
+def _setting(v: float, se: float | None, unit: str = "") -> str:
+    if not math.isfinite(v):
+        return "none"
+    s = f"{fmt(v)}{unit}"
+    return s + (f" (s.e. {fmt(se, 2)})" if se is not None and math.isfinite(se) else "")
+
+
+def running_summary(reading: LoopReading, units: dict[str, str]) -> str:
+    """The running controller in one line (its kind and ideal-form settings), or why it
+    could not be read."""
+    run = reading.running
+    if run is None:
+        return f"not read: {reading.reason}"
+    c, se, gu = run.controller, run.std, _gain_unit(units)
+    parts = [f"Kc {_setting(c.Kc, se.get('Kc'), gu)}"]
+    if math.isfinite(c.Ti):
+        parts.append(f"Ti {_setting(c.Ti, se.get('Ti'), ' s')}")
+    if c.Td > 0:
+        parts.append(f"Td {_setting(c.Td, se.get('Td'), ' s')}")
+    text = f"{c.kind}, " + ", ".join(parts) + " (ideal form)"
+    if not run.converged:
+        text += "; the derivative filter did not converge"
+    if run.residual_share > 0.1:
+        text += (f"; {100 * run.residual_share:.2g} % of the controller output is not "
+                 "explained by these settings (limits, quantisation or another form)")
+    return text
+
+
+def steps_table(reading: LoopReading, units: dict[str, str]) -> Table:
+    """Each setpoint step and the setpoint overshoot method's PI settings from it."""
+    gu = _gain_unit(units)
+    tab = Table(["setpoint step", "overshoot", "peak time", "PI by the overshoot method"])
+    for st in reading.steps:
+        if st.controller is None or st.test is None:
+            result = st.reason or "-"
+            over = peak = "-"
+        else:
+            c = st.controller
+            result = f"Kc {fmt(c.Kc)}{gu}, Ti {fmt(c.Ti)} s"
+            over, peak = f"{100 * st.test.overshoot:.3g} %", f"{fmt(st.test.tp)} s"
+        tab.rows.append([Cell(f"{fmt(st.change, 3)} at {fmt(st.time)} s"), Cell(over, "num"),
+                         Cell(peak, "num"), Cell(result)])
+    return tab
+
+
+def running_loop_lines(reading: LoopReading, units: dict[str, str]) -> list[str]:
+    """The reading in a few plain lines for the terminal."""
+    lines = [f"Running controller (setpoint '{reading.setpoint}'): "
+             f"{running_summary(reading, units)}"]
+    gu = _gain_unit(units)
+    for st in reading.steps:
+        head = f"  setpoint step {fmt(st.change, 3)} at {fmt(st.time)} s: "
+        if st.controller is None or st.test is None:
+            lines.append(head + (st.reason or "-"))
+        else:
+            lines.append(head + f"overshoot {100 * st.test.overshoot:.3g} %, PI by the "
+                         f"setpoint overshoot method Kc {fmt(st.controller.Kc)}{gu}, "
+                         f"Ti {fmt(st.controller.Ti)} s")
+    return lines
+
+
+def running_loop_context(reading: LoopReading | None, units: dict[str, str]) -> dict | None:
+    """The template context of the section (None: an open-loop log)."""
+    if reading is None:
+        return None
+    return {"setpoint": reading.setpoint, "summary": running_summary(reading, units),
+            "steps": steps_table(reading, units) if reading.steps else None}
