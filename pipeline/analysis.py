@@ -36,7 +36,7 @@ from .record import Record
 from .refine import RefineOptions, event_states, held_out_events, noise_bar, widened
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
-from .tuning import RecordTuning, TuningOptions, model_trust, read_loop, tune
+from .tuning import RecordTuning, TuningOptions, model_trust, read_loop, tune, with_plant
 from .validate import heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
@@ -117,11 +117,24 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     chosen = graded.fit(recommendation.method, recommendation.event,
                         recommendation.events) if recommendation else None
     if chosen is not None and chosen.verdict == "unreliable":  # never the answer
-        return replace(graded, flags=graded.flags + (no_usable_model(graded, chosen),))
-    final = replace(graded, recommendation=recommendation)
+        return _through_loop(replace(graded, flags=graded.flags + (
+            no_usable_model(graded, chosen),)), record, None)
+    final = _through_loop(replace(graded, recommendation=recommendation), record, chosen)
     if opt.tuning is None:
         return final
     return replace(final, tuning=tuned(final, opt.tuning))
+
+
+def _through_loop(result: RecordResult, record: Record, chosen: Fit | None) -> RecordResult:
+    """A closed-loop log's reading with the plant fitted through the loop (the indirect
+    approach, :func:`pipeline.tuning.with_plant`), from the recommended direct fit."""
+    if result.loop is None:
+        return result
+    if chosen is None or chosen.model is None:
+        return replace(result, loop=replace(result.loop, plant_reason=(
+            "no usable direct fit of the plant to start the loop's fit from")))
+    return replace(result, loop=with_plant(result.loop, record.t, record.r, record.y,
+                                           chosen.model.structure, chosen.model.params))
 
 
 def tuned(result: RecordResult, options: TuningOptions) -> RecordTuning | None:

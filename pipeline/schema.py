@@ -356,6 +356,18 @@ class SetpointStepDoc(_Doc):
     reason: str | None = None
 
 
+class PlantThroughLoopDoc(_Doc):
+    """The plant fitted through its closed loop, the running controller known (the
+    indirect approach: the loop's response from the setpoint to the measurement)."""
+
+    structure: str
+    params: dict[str, float]
+    ci95: dict[str, tuple[float | None, float | None]] = Field(default_factory=dict)
+    std: dict[str, float] = Field(default_factory=dict)
+    rms: float | None = Field(None, description="RMS of the residuals (output unit)")
+    variance_factor: float | None = None
+
+
 class RunningLoopDoc(_Doc):
     """A closed-loop log read with its setpoint (``data.setpoint``): the running
     controller's settings with their standard errors, or why they could not be read,
@@ -370,6 +382,8 @@ class RunningLoopDoc(_Doc):
     converged: bool | None = None
     reason: str | None = None
     setpoint_steps: list[SetpointStepDoc] = Field(default_factory=list)
+    plant: PlantThroughLoopDoc | None = None
+    plant_reason: str | None = None
 
 
 class RecordDoc(_Doc):

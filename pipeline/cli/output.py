@@ -238,7 +238,7 @@ def print_ranking(res) -> None:
     if res.loop is not None:
         from ..report import running_loop_lines
 
-        for line in running_loop_lines(res.loop, res.record.units):
+        for line in running_loop_lines(res.loop, res.record.units, res.recommended):
             out.print(printable(line), markup=False)
     has_val = bool(res.validation_events)
     for i in res.identification_events:

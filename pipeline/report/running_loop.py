@@ -1,7 +1,8 @@
 """The report's "Running controller" section and its terminal lines: a closed-loop log
 read with its setpoint (:func:`pipeline.tuning.read_loop`): the settings of the
 controller that ran, with their standard errors, and the setpoint overshoot method's PI
-settings from each setpoint step of a loop under P control."""
+settings from each setpoint step of a loop under P control, and the plant fitted through
+the loop with that controller beside the direct fit."""
 
 from __future__ import annotations
 
@@ -61,10 +62,36 @@ def steps_table(reading: LoopReading, units: dict[str, str]) -> Table:
     return tab
 
 
-def running_loop_lines(reading: LoopReading, units: dict[str, str]) -> list[str]:
+def plant_summary(reading: LoopReading, direct=None) -> str:
+    """The plant fitted through the loop in one line, with the direct fit ``direct`` (the
+    recommended fit from the controller output) against its intervals: the direct
+    approach's bias where a parameter falls outside them."""
+    pl = reading.plant
+    if pl is None:
+        return f"not fitted: {reading.plant_reason}" if reading.plant_reason else ""
+    parts = []
+    for n, v in pl.model.params.items():
+        lo, hi = pl.ci95.get(n, (math.nan, math.nan))
+        parts.append(f"{n} {fmt(v)} [{fmt(lo, 3)}, {fmt(hi, 3)}]")
+    text = f"{pl.model.structure.replace('_', ' ')}: " + ", ".join(parts) + " (95 %)"
+    if direct is not None and direct.model is not None and \
+            direct.model.structure == pl.model.structure:
+        out = [n for n, v in direct.model.params.items() if n in pl.ci95 and
+               not pl.ci95[n][0] <= v <= pl.ci95[n][1]]
+        text += ("; the direct fit (" + direct.method + ") is inside these intervals" if not
+                 out else f"; the direct fit ({direct.method}) has {', '.join(out)} outside "
+                 "them: its estimate is biased by the loop")
+    return text
+
+
+def running_loop_lines(reading: LoopReading, units: dict[str, str], direct=None
+                       ) -> list[str]:
     """The reading in a few plain lines for the terminal."""
     lines = [f"Running controller (setpoint '{reading.setpoint}'): "
              f"{running_summary(reading, units)}"]
+    plant = plant_summary(reading, direct)
+    if plant:
+        lines.append(f"  plant through the loop (indirect, the setpoint to the output): {plant}")
     gu = _gain_unit(units)
     for st in reading.steps:
         head = f"  setpoint step {fmt(st.change, 3)} at {fmt(st.time)} s: "
@@ -77,9 +104,11 @@ def running_loop_lines(reading: LoopReading, units: dict[str, str]) -> list[str]
     return lines
 
 
-def running_loop_context(reading: LoopReading | None, units: dict[str, str]) -> dict | None:
+def running_loop_context(reading: LoopReading | None, units: dict[str, str], direct=None
+                         ) -> dict | None:
     """The template context of the section (None: an open-loop log)."""
     if reading is None:
         return None
     return {"setpoint": reading.setpoint, "summary": running_summary(reading, units),
+            "plant": plant_summary(reading, direct),
             "steps": steps_table(reading, units) if reading.steps else None}

@@ -105,7 +105,7 @@ def record_section(res: RecordResult, mode: str, anchor: str) -> tuple[dict, dic
     if mode == "full":
         ctx["compare"] = _compare(res, add, anchor, dpi)
     ctx["controller"] = controller_context(res, mode, add, anchor, dpi)
-    ctx["running_loop"] = running_loop_context(res.loop, rec.units)
+    ctx["running_loop"] = running_loop_context(res.loop, rec.units, res.recommended)
     ctx["record_flags"] = [{"code": f.code, "message": f.message, "severity": f.severity}
                            for f in res.flags]
     ctx["events"] = events_table(res)

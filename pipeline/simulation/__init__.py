@@ -10,7 +10,7 @@ columns the least-squares fits are built from.
 
 from .engine import UNIFORM_REL_TOL, forced_response, simulate
 from .regressors import each_free_column, free_basis, offset_response
-from .zoh import memory
+from .zoh import filter_of, memory
 
-__all__ = ["UNIFORM_REL_TOL", "each_free_column", "forced_response", "free_basis", "memory",
-           "offset_response", "simulate"]
+__all__ = ["UNIFORM_REL_TOL", "each_free_column", "filter_of", "forced_response",
+           "free_basis", "memory", "offset_response", "simulate"]

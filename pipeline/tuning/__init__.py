@@ -18,7 +18,7 @@
 
 from .controller import CONTROLLER_KINDS, Controller, ControllerKind
 from .doc import UNTRUSTED_FLAGS, RecordTuning, model_trust, running_loop_doc, tuning_doc
-from .log_loop import LoopReading, SetpointStep, read_loop, setpoint_steps
+from .log_loop import LoopReading, SetpointStep, read_loop, setpoint_steps, with_plant
 from .loop import LoopResponse, Pid, StepMetrics, simulate_loop
 from .margins import Margins, loop_margins, sensitivity_peaks
 from .overshoot import OvershootTest, read_setpoint_step, setpoint_overshoot_pi
@@ -48,5 +48,5 @@ __all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_F
            "identify_controller", "loop_margins", "model_trust", "nominal_margins",
            "parameter_sets", "read_loop", "read_setpoint_step", "reduce", "reduce_lags",
            "running_loop_doc", "sensitivity_peaks", "setpoint_overshoot_pi",
-           "setpoint_steps", "simulate_loop", "tune", "tune_rule", "tuning_doc",
+           "setpoint_steps", "simulate_loop", "tune", "tune_rule", "tuning_doc", "with_plant",
            "worst_case"]

@@ -10,6 +10,7 @@ from ..schema import (
     ControllerDoc,
     LoopDoc,
     MarginsDoc,
+    PlantThroughLoopDoc,
     ReducedDoc,
     ReplacedDoc,
     RunningLoopDoc,
@@ -171,11 +172,18 @@ def running_loop_doc(reading: LoopReading | None) -> RunningLoopDoc | None:
         offset_ratio=None if st.test is None else _num(st.test.offset_ratio),
         controller=None if st.controller is None else _controller_doc(st.controller),
         reason=st.reason) for st in reading.steps]
+    pl = reading.plant
+    plant = None if pl is None else PlantThroughLoopDoc(
+        structure=pl.model.structure, params={k: float(v) for k, v in pl.model.params.items()},
+        ci95={k: (_num(lo), _num(hi)) for k, (lo, hi) in pl.ci95.items()},
+        std={k: float(v) for k, v in pl.std.items() if math.isfinite(v)}, rms=_num(pl.rms),
+        variance_factor=_num(pl.variance_factor))
     if run is None:
         return RunningLoopDoc(setpoint=reading.setpoint, reason=reading.reason,
-                              setpoint_steps=steps)
+                              setpoint_steps=steps, plant=plant,
+                              plant_reason=reading.plant_reason)
     return RunningLoopDoc(
         setpoint=reading.setpoint, controller=_controller_doc(run.controller),
         std={k: v for k, v in run.std.items() if math.isfinite(v)}, bias=_num(run.bias),
         residual_share=_num(run.residual_share), converged=run.converged,
-        setpoint_steps=steps)
+        setpoint_steps=steps, plant=plant, plant_reason=reading.plant_reason)

@@ -6,6 +6,8 @@ the setpoint ``r`` beside the measurement ``y`` and the controller output ``u``
   identify_controller`) and, for each setpoint step of a loop under P control, PI
   settings by the setpoint overshoot method (:func:`pipeline.tuning.setpoint_overshoot_pi`,
   Shamsuzzoha & Skogestad 2010), each with the reason where it cannot be read;
+* :func:`with_plant` - the plant fitted through the loop with the running controller (the
+  indirect approach, :func:`pipeline.refine.fit_through_loop`), from the direct fit;
 * :func:`setpoint_steps` - where the setpoint steps, and by how much.
 
 Pure functions of numpy arrays; the analysis (:mod:`pipeline.analysis`) calls
@@ -15,10 +17,12 @@ Pure functions of numpy arrays; the analysis (:mod:`pipeline.analysis`) calls
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..refine import ClosedLoopFit, fit_through_loop
 from .controller import Controller
 from .overshoot import OvershootTest, read_setpoint_step, setpoint_overshoot_pi
 from .running import RunningController, identify_controller
@@ -27,6 +31,9 @@ from .running import RunningController, identify_controller
 #: of the setpoint's range (a setpoint is piecewise constant; a ramped setpoint has no
 #: step to read an overshoot from).
 STEP_SHARE = 0.05
+#: The running controller is known well enough to fit the plant through the loop when its
+#: settings explain the controller output to within this share of its spread.
+CONTROLLER_SHARE = 0.05
 #: The response to a setpoint step has settled when the means of the window's last two
 #: tenths differ by at most this share of the step (else the steady change is read from
 #: the first swing, the method's eq. 18).
@@ -49,12 +56,16 @@ class SetpointStep:
 @dataclass(frozen=True)
 class LoopReading:
     """A closed loop read off its log: the ``setpoint``'s name, the ``running``
-    controller (None with ``reason`` when it cannot be read) and the setpoint ``steps``."""
+    controller (None with ``reason`` when it cannot be read), the setpoint ``steps``, and
+    the ``plant`` fitted through the loop with that controller (:func:`with_plant`; None
+    with ``plant_reason``, or not asked for: both None)."""
 
     setpoint: str
     running: RunningController | None
     reason: str | None
     steps: tuple[SetpointStep, ...] = ()
+    plant: ClosedLoopFit | None = None
+    plant_reason: str | None = None
 
 
 def setpoint_steps(r: np.ndarray) -> list[tuple[int, float]]:
@@ -77,6 +88,25 @@ def read_loop(t, r, y, u, *, setpoint: str = "r") -> LoopReading:
     except ValueError as exc:
         running, reason = None, str(exc)
     return LoopReading(setpoint, running, reason, tuple(_steps(t, r, y, running)))
+
+
+def with_plant(reading: LoopReading, t, r, y, structure: str,
+               start: Mapping[str, float]) -> LoopReading:
+    """``reading`` with the plant ``structure`` fitted through the loop, the running
+    controller known (the indirect approach, :func:`pipeline.refine.fit_through_loop`),
+    started at ``start`` (the direct fit's parameters); the reason where it cannot be."""
+    if reading.running is None:
+        return replace(reading, plant_reason="the running controller could not be read")
+    if reading.running.residual_share > CONTROLLER_SHARE:
+        return replace(reading, plant_reason=(
+            f"the controller's settings explain the controller output only to "
+            f"{100 * reading.running.residual_share:.2g} % (limits, quantisation or another "
+            "form): the loop is not known well enough to fit the plant through it"))
+    try:
+        fit = fit_through_loop(t, r, y, reading.running.controller, structure, start)
+    except ValueError as exc:
+        return replace(reading, plant_reason=str(exc))
+    return replace(reading, plant=fit)
 
 
 def _steps(t: np.ndarray, r: np.ndarray, y: np.ndarray, running: RunningController | None

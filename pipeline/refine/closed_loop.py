@@ -1,0 +1,183 @@
+"""The plant identified through its closed loop, the controller known (issue 32 item 1, the
+indirect approach): the model of the plant inside the loop, fitted to the loop's response
+from the setpoint ``r`` to the measurement ``y``.
+
+The direct approach (fitting ``u -> y`` as in open loop) is biased where the measurement
+noise feeds back through the controller into ``u``: the input is then correlated with the
+noise. The setpoint is not: with the controller known, the closed loop ``r -> y`` is a
+function of the plant's parameters alone, so an output-error fit of it is consistent and
+its intervals are the ordinary ones (L. Ljung, System Identification, 2nd ed., 1999,
+sec. 13.4 "indirect identification"; P. M. J. Van den Hof, "Closed-loop issues in system
+identification", Annual Reviews in Control 22:173-186, 1998).
+
+Both halves are exact discrete systems:
+
+* the plant: the structure's exact ZOH filter with its fractional dead time,
+  ``G = z^-lag b(z^-1) / a(z^-1)`` (:func:`pipeline.simulation.filter_of`);
+* the controller as :mod:`pipeline.tuning.running` reads it off the log: the positional
+  ideal PID, forward-Euler integral, the derivative on the measurement through the
+  backward-Euler filter ``Tf``: ``u = Ce (r - y) - Cd y`` with
+  ``Ce = Kc (1 + (h/Ti) z^-1 / (1 - z^-1))`` and
+  ``Cd = Kc (Td / (Tf + h)) (1 - z^-1) / (1 - Tf/(Tf + h) z^-1)``;
+
+so ``y = G Ce / (1 + G (Ce + Cd)) r``, one rational filter, simulated by ``lfilter`` on
+the setpoint's change from its first sample (the loop at rest there) plus an offset
+solved linearly. The plant's gain enters the loop nonlinearly, so it is searched with
+the dynamics (``scipy.optimize.least_squares``, trust-region reflective, log scale
+where positive), from a start (the direct fit's model). Intervals: the Jacobian's
+covariance with the residuals' variance factor (:func:`pipeline.uncertainty.covariance`),
+on log scale for positive parameters.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.signal import lfilter
+
+from ..models import STRUCTURES, ProcessModel
+from ..simulation import filter_of
+from ..uncertainty import covariance, t_quantile, variance_factor
+from .search import FTOL, search_space
+
+
+class Controller(Protocol):
+    """The settings this module reads (:class:`pipeline.tuning.Controller` has them; the
+    refinement does not import the tuning, which imports it): ideal form, seconds, ``Ti``
+    inf without integral action, ``Tf`` the derivative filter's time constant."""
+
+    Kc: float
+    Ti: float
+    Td: float
+    Tf: float
+
+
+@dataclass(frozen=True)
+class ClosedLoopFit:
+    """The plant fitted through its loop: the ``model``, its 95 % intervals and standard
+    errors, the offset, the residuals' RMS and variance factor, and the residual
+    evaluations the search took."""
+
+    model: ProcessModel
+    ci95: dict[str, tuple[float, float]]
+    std: dict[str, float]
+    offset: float
+    rms: float
+    variance_factor: float
+    nfev: int
+
+
+def controller_polynomials(c: Controller, h: float
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(Nc, Dc, Nd, Dd)`` in powers of ``z^-1``: the error path ``Ce = Nc/Dc`` and the
+    measurement's derivative path ``Cd = Nd/Dd`` of the controller sampled at ``h``
+    (module docstring)."""
+    if math.isfinite(c.Ti):
+        nc, dc = c.Kc * np.array([1.0, h / c.Ti - 1.0]), np.array([1.0, -1.0])
+    else:
+        nc, dc = np.array([c.Kc]), np.array([1.0])
+    if c.Td > 0:
+        nd = c.Kc * c.Td / (c.Tf + h) * np.array([1.0, -1.0])
+        dd = np.array([1.0, -c.Tf / (c.Tf + h)])
+    else:
+        nd, dd = np.array([0.0]), np.array([1.0])
+    return nc, dc, nd, dd
+
+
+def _add(*polys: np.ndarray) -> np.ndarray:
+    out = np.zeros(max(p.size for p in polys))
+    for p in polys:
+        out[: p.size] += p
+    return out
+
+
+def loop_filter(structure: str, params: Mapping[str, float], c: Controller, h: float
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(num, den)`` in powers of ``z^-1`` of the closed loop ``r -> y`` (module
+    docstring); None where the structure has no exact ZOH filter."""
+    f = filter_of(structure, params, h)
+    if f is None:
+        return None
+    k = float(params["K"])
+    bz = np.r_[np.zeros(f.lag), k * np.asarray(f.b, np.float64)]
+    a = np.asarray(f.a, np.float64)
+    nc, dc, nd, dd = controller_polynomials(c, h)
+    num = np.convolve(np.convolve(bz, nc), dd)
+    den = _add(np.convolve(np.convolve(a, dc), dd), num,
+               np.convolve(np.convolve(bz, nd), dc))
+    return num, den
+
+
+def loop_response(structure: str, params: Mapping[str, float], c: Controller, h: float,
+                  r: np.ndarray) -> np.ndarray | None:
+    """The measurement's change the closed loop makes from the setpoint ``r`` (its change
+    from ``r[0]``, the loop at rest there); None where the loop cannot be simulated."""
+    nd = loop_filter(structure, params, c, h)
+    if nd is None or not nd[1][0]:
+        return None
+    return lfilter(nd[0], nd[1], np.asarray(r, np.float64) - float(r[0]))
+
+
+def fit_through_loop(t, r, y, controller: Controller, structure: str,
+                     start: Mapping[str, float], *, max_nfev: int = 200,
+                     level: float = 0.95) -> ClosedLoopFit:
+    """The plant ``structure`` fitted to the closed loop's ``r -> y`` on the uniform grid
+    ``t``, the ``controller`` known, from the parameters ``start`` (module docstring).
+    Raises ValueError on an irregular grid or a structure without an exact filter."""
+    t, r, y = (np.asarray(a, np.float64) for a in (t, r, y))
+    h = float(np.median(np.diff(t)))
+    if not h > 0 or np.max(np.abs(np.diff(t) - h)) > 0.01 * h:
+        raise ValueError("the loop's log must be sampled uniformly (within 1 %)")
+    if loop_filter(structure, start, controller, h) is None:
+        raise ValueError(f"a {structure.replace('_', ' ')} model has no exact discrete "
+                         "filter of order 1 or 2 to close the loop with")
+    spec = STRUCTURES[structure]
+    names = [n for n in spec.params if n != "K"]
+    span = float(t[-1] - t[0])
+    space = search_space(structure, names, h, span)
+    k_sign = math.copysign(1.0, float(start["K"]))
+
+    def params_of(z: np.ndarray) -> dict[str, float]:
+        return {"K": k_sign * math.exp(z[0]), **space.from_z(z[1:])}
+
+    def residual(z: np.ndarray) -> np.ndarray:
+        sim = loop_response(structure, params_of(z), controller, h, r)
+        if sim is None or not np.all(np.isfinite(sim)) or np.max(np.abs(sim)) > 1e100:
+            return np.full(y.size, 1e150)
+        e = y - sim
+        return e - float(np.mean(e))  # the offset, solved linearly
+
+    z0 = np.r_[math.log(abs(float(start["K"]))), space.to_z(start)]
+    lo, hi = np.r_[-50.0, space.lo], np.r_[50.0, space.hi]
+    res = least_squares(residual, z0, bounds=(lo, hi), method="trf", ftol=FTOL, xtol=FTOL,
+                        max_nfev=max_nfev)
+    p = params_of(res.x)
+    e = residual(res.x)
+    sim = loop_response(structure, p, controller, h, r)
+    offset = float(np.mean(y - sim)) if sim is not None else math.nan
+    factor = variance_factor(e)
+    cov = covariance(res.jac, e, res.x.size + 1, factor)
+    se_z = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    q = t_quantile(max(e.size / factor - res.x.size - 1, 10.0), level)
+    keys = ["K", *space.names]
+    is_log = np.r_[True, space.log]
+    scale = np.r_[1.0, space.scale]
+    ci, std = {}, {}
+    for i, n in enumerate(keys):
+        v = p[n]
+        if is_log[i]:
+            lo_v, hi_v = abs(v) * math.exp(-q * se_z[i]), abs(v) * math.exp(q * se_z[i])
+            lo_v, hi_v = (lo_v, hi_v) if v >= 0 else (-hi_v, -lo_v)
+            std[n] = abs(v) * float(se_z[i])
+        else:
+            half = q * float(se_z[i]) * scale[i]
+            lo_v, hi_v = v - half, v + half
+            std[n] = float(se_z[i] * scale[i])
+        ci[n] = (float(lo_v), float(hi_v))
+    return ClosedLoopFit(ProcessModel(structure, p), ci, std, offset,
+                         float(np.sqrt(np.mean(e * e))), factor, int(res.nfev))
