@@ -36,7 +36,15 @@ from .record import Record
 from .refine import RefineOptions, event_states, held_out_events, noise_bar, widened
 from .results import RecordResult
 from .segmentation import SegmentOptions, segment
-from .tuning import RecordTuning, TuningOptions, model_trust, read_loop, tune, with_plant
+from .tuning import (
+    THROUGH_LOOP,
+    RecordTuning,
+    TuningOptions,
+    model_trust,
+    read_loop,
+    tune,
+    with_plant,
+)
 from .validate import heldout_residuals, identification_residuals, score
 
 #: An event window with fewer samples after t0 gives no model (never a silent bad one).
@@ -146,11 +154,15 @@ def tuned(result: RecordResult, options: TuningOptions) -> RecordTuning | None:
     input mid-range, then a load step of a quarter of the test's input step at the plant
     input, with the actuator limited to the input range the log saw (or
     ``options.u_limits``). A model whose verdict is unreliable or that is
-    flagged closed-loop gives no "robust" tuning."""
+    flagged closed-loop gives no "robust" tuning. A closed-loop log whose plant was
+    fitted through the loop (:func:`pipeline.tuning.with_plant`) is tuned from that
+    plant and its intervals instead (:data:`pipeline.tuning.THROUGH_LOOP`): the direct fit
+    is the one flagged closed-loop."""
     fit, rec = result.recommended, result.record
     if fit is None or fit.model is None or rec is None:
         return None
-    model = fit.model
+    plant = result.loop.plant if result.loop is not None else None
+    model = fit.model if plant is None else plant.model
     ev = result.events[fit.event]
     du = ev.u_ss - ev.u0 if ev.kind == "step" else float(np.ptp(rec.u)) / 2.0
     if model.integrating:
@@ -160,16 +172,20 @@ def tuned(result: RecordResult, options: TuningOptions) -> RecordTuning | None:
         r_step = model.K * du / 2.0
     lo, hi = options.u_limits or (float(np.min(rec.u)), float(np.max(rec.u)))
     limits = (min(lo - ev.u0, 0.0), max(hi - ev.u0, 0.0))
-    trusted, why = model_trust(fit.verdict, (f.code for f in (*fit.flags, *result.flags)),
-                               (f.code for f in fit.flags if f.severity == "warning"))
-    base = RecordTuning(method=fit.method, event=fit.event, events=tuple(fit.events),
+    if plant is None:
+        trusted, why = model_trust(fit.verdict, (f.code for f in (*fit.flags, *result.flags)),
+                                   (f.code for f in fit.flags if f.severity == "warning"))
+        ci95 = fit.ci95
+        cov = fit.refinement.covariance if fit.refinement is not None else None
+    else:  # its intervals are the loop fit's (no covariance kept: the box is checked)
+        trusted, why, ci95, cov = True, "", plant.ci95, None
+    base = RecordTuning(method=fit.method if plant is None else THROUGH_LOOP,
+                        event=fit.event, events=tuple(fit.events) if plant is None else (),
                         rule=options.rule, units=dict(rec.units), r_step=r_step,
                         d_step=du / 4.0, u_limits=limits)
     try:
-        t = tune(model, options, ci95=fit.ci95, covariance=(
-            fit.refinement.covariance if fit.refinement is not None else None),
-            trusted=trusted, why_not=why, r_step=r_step or 1.0,
-            d_step=du / 4.0 or None, u_limits=limits)
+        t = tune(model, options, ci95=ci95, covariance=cov, trusted=trusted, why_not=why,
+                 r_step=r_step or 1.0, d_step=du / 4.0 or None, u_limits=limits)
     except ValueError as exc:
         return replace(base, reason=str(exc))
     return replace(base, tuning=t)

@@ -21,6 +21,8 @@ TRUTH = {"fopdt": ("first_order", {"K": 2.0, "T": 10.0, "delay": 1.0}, "T"),
          "two_lags": ("two_lags", {"K": 1.0, "T1": 8.0, "T2": 3.0, "delay": 1.0}, "T1"),
          "integrator_lag": ("integrator_lag", {"K": 0.2, "T": 3.0, "delay": 2.0}, "T")}
 LOOPS = [(p, k) for p in TRUTH for k in LOOP_TUNINGS[p]]
+#: SIMC's PI for the first-order plant (tau_c = theta)
+SIMC_KC, SIMC_TI = LOOP_TUNINGS["fopdt"]["PI"][:2]
 
 
 def _setpoint(t: np.ndarray) -> np.ndarray:
@@ -79,8 +81,10 @@ def test_gain_and_lag_within_10_percent_and_intervals_that_cover():
 def test_the_p_loop_direct_fit_is_biased_and_the_loop_fit_is_not(tmp_path):
     """A P loop (Kc 3.68, 27 % overshoot) whose direct fit (controller output to
     measurement) is off the gain by more than 15 %, and not "ok"; fitted through the
-    loop from it, the gain is within 2 %, and the report line says the direct fit is
-    biased. The twin: the PI loop's direct fit is near, and so is the loop's."""
+    loop from it, the gain is within 2 %, the report line says the direct fit is biased,
+    and the controller tuned from the loop's plant is SIMC's within 3 % and robust (from
+    the direct fit: Ti 6.75 s, 16 % short, and fragile). The twin: the PI loop's direct
+    fit is near, and so is the loop's."""
     runner = CliRunner()
     for kind, detune, biased in (("P", 0.68, True), ("PI", 1.0, False)):
         rec = loop_record("fopdt", kind, detune=detune, noise=0.05, seed=1,
@@ -103,6 +107,12 @@ def test_the_p_loop_direct_fit_is_biased_and_the_loop_fit_is_not(tmp_path):
         direct = doc["recommended"]
         assert (abs(direct["params"]["K"] / 2.0 - 1) > 0.15) == biased
         assert direct["verdict"] != "ok"
+        # the controller is tuned from the plant through the loop: SIMC's own settings
+        tuning = doc["tuning"]
+        assert tuning["method"] == "plant_through_loop"
+        assert tuning["controller"]["Kc"] == pytest.approx(SIMC_KC, rel=0.03)
+        assert tuning["controller"]["Ti"] == pytest.approx(SIMC_TI, rel=0.03)
+        assert tuning["verdict"] == "robust"
         text = runner.invoke(app, args).stdout
         assert "plant through the loop" in text
         if biased:

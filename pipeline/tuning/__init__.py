@@ -18,7 +18,14 @@
 
 from .controller import CONTROLLER_KINDS, Controller, ControllerKind
 from .doc import UNTRUSTED_FLAGS, RecordTuning, model_trust, running_loop_doc, tuning_doc
-from .log_loop import LoopReading, SetpointStep, read_loop, setpoint_steps, with_plant
+from .log_loop import (
+    THROUGH_LOOP,
+    LoopReading,
+    SetpointStep,
+    read_loop,
+    setpoint_steps,
+    with_plant,
+)
 from .loop import LoopResponse, Pid, StepMetrics, simulate_loop
 from .margins import Margins, loop_margins, sensitivity_peaks
 from .overshoot import OvershootTest, read_setpoint_step, setpoint_overshoot_pi
@@ -40,6 +47,7 @@ from .tuner import (
 )
 
 __all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_FACTORS",
+           "THROUGH_LOOP",
            "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm",
            "ControllerKind", "KindChoice", "LoopReading", "LoopResponse", "Margins",
            "OvershootTest", "Pid", "RecordTuning", "Reduced", "RuleName",
