@@ -52,6 +52,8 @@ a joint fit: :func:`pipeline.schema.fit_label`). :func:`compare` returns a
 * **tuning_drift** / **tuning_verdict** - the controller tuned from the recommended
   model moved (Kc, Ti, Td beyond tolerance and beyond their spread over the intervals)
   or its verdict got worse: :mod:`pipeline.gate.tuning_findings`.
+* a closed-loop log's plant fitted through the loop drifted (a regression), or its running
+  controller was retuned (information): :mod:`pipeline.gate.loop_findings`.
 * **missing** - a record, or a fit that was ok, is in the baseline but not in the current
   results (``missing_is_regression=False`` only lists them).
 
@@ -91,6 +93,7 @@ from .findings import (
     recommended_fit,
     tag_recommended,
 )
+from .loop_findings import loop_findings
 from .tuning_findings import tuning_findings
 
 __all__ = ["Comparison", "Finding", "Tolerances", "accept", "compare", "load_baseline",
@@ -259,7 +262,8 @@ def _compare_record(name: str, cur: RecordDoc | None, base: RecordDoc, tol: Tole
     fits = _compare_fits(name, cur, base, tol)
     key = recommended_fit(cur, base)
     drifted = any(f.kind == "param_drift" and (f.event, f.method) == key for f in fits)
-    return [*fits, *tuning_findings(name, cur, base, key, tol, drifted)]
+    return [*fits, *tuning_findings(name, cur, base, key, tol, drifted),
+            *loop_findings(name, cur, base, tol)]
 
 
 def _fits(record: RecordDoc) -> dict[tuple[int, str], FitDoc]:

@@ -95,10 +95,12 @@ def loop_record(plant: str, controller: str, *, detune: float = 1.0, dt: float =
                 setpoints: Sequence[tuple[float, float]] = ((20.0, 55.0), (120.0, 47.0),
                                                             (220.0, 52.0)),
                 loads: Sequence[tuple[float, float]] = (), noise: float = 0.0,
-                noise_phi: float = 0.0, seed: int = 0, name: str | None = None) -> Record:
+                noise_phi: float = 0.0, seed: int = 0, name: str | None = None,
+                gain: float = 1.0) -> Record:
     """A closed loop of one of :data:`LOOP_PLANTS` under its :data:`LOOP_TUNINGS`
     ``controller`` (``P``, ``PI`` or ``PID``; Kc divided by ``detune``), the controller
-    output logged as the input.
+    output logged as the input; ``gain`` multiplies the plant's (a plant that drifted
+    under settings tuned for the bench's).
 
     The plant is the ZOH discretisation of its transfer function (``scipy.signal.
     cont2discrete``) behind a dead time of whole samples, started at rest; the load
@@ -112,6 +114,7 @@ def loop_record(plant: str, controller: str, *, detune: float = 1.0, dt: float =
     from scipy.signal import cont2discrete, tf2ss
 
     num, den, delay = LOOP_PLANTS[plant]
+    num = tuple(gain * x for x in num)  # a plant whose gain drifted (the tuning does not)
     kc, ti, td = LOOP_TUNINGS[plant][controller]
     kc /= detune
     a, b, c, dd, _ = cont2discrete(tf2ss(num, den), dt, "zoh")
