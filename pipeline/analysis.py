@@ -42,6 +42,7 @@ from .tuning import (
     TuningOptions,
     model_trust,
     read_loop,
+    through_loop_trust,
     tune,
     with_plant,
 )
@@ -84,11 +85,12 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
     them.
     """
     opt = options or AnalysisOptions()
+    # a closed loop's controller is read off the measurement it saw, glitches and all
+    loop = None if record.r is None else read_loop(record.t, record.r, record.y, record.u,
+                                                   setpoint=record.setpoint_name or "r")
     record = without_outliers(record)  # a glitch is named (outlier_samples), not fitted
     base = RecordResult(name=name or record.name, source=record.source, record=record,
-                        loop=None if record.r is None else read_loop(
-                            record.t, record.r, record.y, record.u,
-                            setpoint=record.setpoint_name or "r"))
+                        loop=loop)
     events = segment(record, opt.segmentation)
     if not events:
         return replace(base, error=no_event_message(record))
@@ -178,7 +180,8 @@ def tuned(result: RecordResult, options: TuningOptions) -> RecordTuning | None:
         ci95 = fit.ci95
         cov = fit.refinement.covariance if fit.refinement is not None else None
     else:  # its intervals are the loop fit's (no covariance kept: the box is checked)
-        trusted, why, ci95, cov = True, "", plant.ci95, None
+        trusted, why = through_loop_trust(f.code for f in result.flags)
+        ci95, cov = plant.ci95, None
     base = RecordTuning(method=fit.method if plant is None else THROUGH_LOOP,
                         event=fit.event, events=tuple(fit.events) if plant is None else (),
                         rule=options.rule, units=dict(rec.units), r_step=r_step,

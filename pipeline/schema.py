@@ -6,11 +6,13 @@ prints is generated from them (:func:`json_schema`) and shipped in the package
 report, the regression gate, the history and the JUnit writer read these objects, never
 string keys of a dict.
 
-Versions: ``schema_version`` "3" is this layout: a flag's severity may be ``info`` (it
-does not change the verdict), and ``best`` is written as null (the recommended model is
-the one answer); a record may carry ``tuning`` (the controller tuned from the
-recommended model). Versions 2 and 1 (pipeline 0.1, no ``schema_version`` key) are read
-too: their objects are a subset of version 3.
+Versions: ``schema_version`` "4" is this layout: a record carries ``running_loop`` (a
+closed-loop log read with its setpoint: the running controller, the setpoint steps, the
+plant fitted through the loop; null for an open-loop test). Version 3: a flag's severity
+may be ``info`` (it does not change the verdict), and ``best`` is written as null (the
+recommended model is the one answer); a record may carry ``tuning`` (the controller
+tuned from the recommended model). Versions 3, 2 and 1 (pipeline 0.1, no
+``schema_version`` key) are read too: their objects are a subset of version 4.
 """
 
 from __future__ import annotations
@@ -20,8 +22,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-SCHEMA_VERSION = "3"
-READABLE_VERSIONS = ("1", "2", "3")
+SCHEMA_VERSION = "4"
+READABLE_VERSIONS = ("1", "2", "3", "4")
+#: The source a closed-loop log's plant fitted through its loop is named by, where a fit's
+#: method would be (``tuning.method``, the history's ``method``).
+THROUGH_LOOP = "plant_through_loop"
 
 # The vocabularies the results and the runtime types share (pipeline.fit, pipeline.events).
 #: A method's outcome on an event: a model, no model with the reason, or a method bug.
@@ -421,7 +426,7 @@ class ResultsDoc(_Doc):
 
     model_config = ConfigDict(title="pipeline results.json")
 
-    schema_version: Literal["1", "2", "3"] = SCHEMA_VERSION
+    schema_version: Literal["1", "2", "3", "4"] = SCHEMA_VERSION
     pipeline_version: str
     config: str = ""
     created: str = ""

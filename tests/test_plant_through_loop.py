@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from pipeline.cli import app
 from pipeline.refine import fit_through_loop, loop_response
-from pipeline.synth.closed_loop import LOOP_TUNINGS, loop_record
+from pipeline.synth.closed_loop import LOOP_TUNINGS, loop_record, pi_loop_record
 from pipeline.tuning import Controller, identify_controller, read_loop, with_plant
 
 SETPOINTS = ((20.0, 55.0), (120.0, 47.0), (220.0, 52.0))
@@ -113,8 +113,13 @@ def test_the_p_loop_direct_fit_is_biased_and_the_loop_fit_is_not(tmp_path):
         assert tuning["controller"]["Kc"] == pytest.approx(SIMC_KC, rel=0.03)
         assert tuning["controller"]["Ti"] == pytest.approx(SIMC_TI, rel=0.03)
         assert tuning["verdict"] == "robust"
-        text = runner.invoke(app, args).stdout
+        out = tmp_path / f"out_{kind}"
+        text = runner.invoke(app, [*args, "--out", str(out)]).stdout
         assert "plant through the loop" in text
+        # pipeline tune on the results tunes from the same plant as the run did
+        again = runner.invoke(app, ["tune", str(out / "results.json")])
+        assert again.exit_code == 0, again.output
+        assert f"Kc {tuning['controller']['Kc']:.4g}" in again.stdout
         if biased:
             assert "has K, T, delay outside them: its estimate is biased by the loop" in text
 
@@ -135,3 +140,59 @@ def test_what_cannot_be_fitted_says_why():
         fit_through_loop(rec.t + np.r_[0.0, np.full(rec.t.size - 1, 0.03)] * (
             np.arange(rec.t.size) % 2), r, rec.y, Controller.ideal(2.5, 8.0), "first_order",
             TRUTH["fopdt"][1])
+
+
+def test_the_gain_sign_is_the_controllers():
+    """A plant of gain -2 under a direct-acting PI (Kc -2.5): from a start of the wrong
+    sign (a direct fit's classic failure in closed loop), the fit still finds -2."""
+    rec = loop_record("fopdt", "PI", detune=-1.0, gain=-1.0, noise=0.05, seed=4,
+                      setpoints=SETPOINTS)
+    r = _setpoint(rec.t)
+    c = identify_controller(rec.t, r, rec.y, rec.u).controller
+    assert c.Kc == pytest.approx(-2.5, rel=1e-6)
+    for k0 in (-2.6, 2.6):
+        fit = fit_through_loop(rec.t, r, rec.y, c, "first_order",
+                               {"K": k0, "T": 13.0, "delay": 1.0})
+        assert fit.model.params["K"] == pytest.approx(-2.0, rel=0.02)
+        lo, hi = fit.ci95["K"]
+        assert lo <= -2.0 <= hi < 0
+
+
+def test_an_order_held_lags_in_order_and_a_dead_time_not_below_zero():
+    rec = loop_record("two_lags", "PI", noise=0.05, seed=5, setpoints=SETPOINTS)
+    r = _setpoint(rec.t)
+    c = identify_controller(rec.t, r, rec.y, rec.u).controller
+    for n in (1.0, 2.0):  # an equal-lag chain's order, as the refinement rounded it
+        fit = fit_through_loop(rec.t, r, rec.y, c, "n_lags",
+                               {"K": 1.2, "T": 5.0, "n": n, "delay": 1.0})
+        assert fit.model.params["n"] == n and "n" not in fit.ci95
+        assert all(v > 0 and np.isfinite(v) for v in fit.std.values())
+    # from a start with the lags the other way round (T1 < T2), T1 is the larger
+    fit = fit_through_loop(rec.t, r, rec.y, c, "two_lags",
+                           {"K": 1.3, "T1": 3.0, "T2": 10.0, "delay": 1.0})
+    assert fit.model.params["T1"] == pytest.approx(8.0, rel=0.1)
+    assert fit.model.params["T2"] == pytest.approx(3.0, rel=0.1)
+    assert fit.ci95["T1"][0] > fit.ci95["T2"][1]
+    # a plant without dead time: the interval of its dead time starts at 0, not below
+    fast = pi_loop_record(K=2.0, T=10.0, delay=0.0, Kc=2.5, Ti=8.0, noise=0.2, seed=4)
+    r0 = np.full(fast.t.size, 50.0)
+    for t_c, level in ((20.0, 60.0), (120.0, 45.0), (220.0, 55.0)):  # its defaults
+        r0[fast.t >= t_c - 1e-9] = level
+    c = identify_controller(fast.t, r0, fast.y, fast.u).controller
+    fit = fit_through_loop(fast.t, r0, fast.y, c, "first_order",
+                           {"K": 2.2, "T": 11.0, "delay": 0.05})
+    assert fit.model.params["K"] == pytest.approx(2.0, rel=0.05)
+    assert fit.model.params["delay"] < 0.1
+    assert fit.ci95["delay"][0] == 0.0 <= fit.ci95["delay"][1]
+
+
+def test_no_setpoint_change_and_direct_feedthrough_are_refused():
+    rec = loop_record("fopdt", "PI", noise=0.05, seed=3, setpoints=SETPOINTS,
+                      loads=((100.0, 0.5),))
+    c = Controller.ideal(2.5, 8.0)
+    with pytest.raises(ValueError, match="never changes"):
+        fit_through_loop(rec.t, np.full(rec.t.size, 50.0), rec.y, c, "first_order",
+                         TRUTH["fopdt"][1])
+    with pytest.raises(ValueError, match="direct feedthrough"):
+        fit_through_loop(rec.t, _setpoint(rec.t), rec.y, c, "lead_lag",
+                         {"K": 2.0, "Tz": 4.0, "T": 10.0, "delay": 0.0})

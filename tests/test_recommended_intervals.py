@@ -42,3 +42,21 @@ def test_the_refinement_not_the_reading_that_validated_best(case):
     best = min(readings, key=lambda f: f.metrics["mse_validation"])
     assert best.metrics["mse_validation"] < fit.metrics["mse_validation"]
     assert not score(best.model, plant, cond).right
+
+
+def test_a_reading_stays_where_its_structure_was_not_refined():
+    """The twin of the rule: a two-lag plant analysed with only a first-order refinement
+    beside the readings. Harriott's two-lag reading (validation MSE 1.3e-4) has no
+    refinement of its structure to defer to and is recommended, not the first-order
+    refinement 6 times worse."""
+    from pipeline.models import ProcessModel
+    from pipeline.synth.plants import step_record
+
+    truth = ProcessModel("two_lags", {"K": 2.0, "T1": 10.0, "T2": 6.0, "delay": 1.0})
+    rec = step_record(truth, u0=0.0, y0=0.0, changes=[(10.0, 1.0), (150.0, 0.0)], dt=0.2,
+                      t_end=300.0, noise=0.01, seed=1)
+    res = analyse(rec, AnalysisOptions(methods=("harriott", "smith", "first_order",
+                                                "lsq_first_order"), tuning=None))
+    assert res.recommended.method == "harriott"
+    lsq = res.fit("lsq_first_order", 0)
+    assert lsq.metrics["mse_validation"] > 5 * res.recommended.metrics["mse_validation"]

@@ -11,7 +11,14 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..models import STRUCTURES, ProcessModel
-from ..tuning import RecordTuning, TuningOptions, model_trust, tune
+from ..tuning import (
+    THROUGH_LOOP,
+    RecordTuning,
+    TuningOptions,
+    model_trust,
+    through_loop_trust,
+    tune,
+)
 
 
 def parse_model(structure: str, assignments: list[str]) -> ProcessModel:
@@ -70,11 +77,19 @@ def _from_results(path: Path, options: TuningOptions, record: str | None
             out.append((r.name, RecordTuning(**{**base.__dict__,
                                                 "reason": "no recommended model"})))
             continue
-        model = ProcessModel(rec.structure, dict(rec.params))
-        ci95 = {k: (lo, hi) for k, (lo, hi) in rec.ci95.items()
+        plant = r.running_loop.plant if r.running_loop is not None else None
+        if plant is None:
+            model = ProcessModel(rec.structure, dict(rec.params))
+            intervals = rec.ci95
+            trusted, why = model_trust(rec.verdict, (f.code for f in (*rec.flags, *r.flags)),
+                                       (f.code for f in rec.flags if f.severity == "warning"))
+        else:  # a closed-loop log's plant fitted through its loop, as the run tuned it
+            model = ProcessModel(plant.structure, dict(plant.params))
+            intervals = plant.ci95
+            trusted, why = through_loop_trust(f.code for f in r.flags)
+            base = replace(base, method=THROUGH_LOOP, events=())
+        ci95 = {k: (lo, hi) for k, (lo, hi) in intervals.items()
                 if lo is not None and hi is not None}
-        trusted, why = model_trust(rec.verdict, (f.code for f in (*rec.flags, *r.flags)),
-                                   (f.code for f in rec.flags if f.severity == "warning"))
         out.append((r.name, _tuned(base, model, options, ci95, trusted, why, note=(
             "results.json keeps the 95 % intervals but not the parameter covariance: the "
             "settings are checked on the box's corners only") if ci95 else "")))

@@ -8,8 +8,10 @@ column per parameter of :data:`pipeline.models.PARAMETERS` (null when the model 
 such parameter), one per metric of :class:`pipeline.schema.MetricsDoc` (null when not
 computed), the tuned controller's ``Kc``, ``Ti``, ``Td`` (ideal form, seconds; ``Kc``
 signed) and ``tuning_verdict`` on the recommended model's row (null elsewhere, and ``Ti``
-null without integral action), and ``pipeline_version``. A record that failed has one
-row with null event and method and status ``failed``.
+null without integral action), the running controller's ``running_Kc``, ``running_Ti``,
+``running_Td`` on a closed-loop log's row of its plant fitted through the loop (method
+``plant_through_loop``, event null), and ``pipeline_version``. A record that failed has
+one row with null event and method and status ``failed``.
 
 :func:`history_rows` is pure; :func:`append_history` reads the existing file, appends
 (polars ``concat(how="diagonal_relaxed")``, so files written by older versions with fewer
@@ -35,7 +37,7 @@ import polars as pl
 from ..errors import UserError
 from ..files import locked, refuse_special, through_link, write_atomic
 from ..models import PARAMETERS
-from ..schema import MetricsDoc, ResultsDoc
+from ..schema import THROUGH_LOOP, MetricsDoc, ResultsDoc
 
 METRICS = tuple(MetricsDoc.model_fields)
 
@@ -55,6 +57,9 @@ SCHEMA: dict[str, pl.DataType] = {
     "Ti": pl.Float64(),
     "Td": pl.Float64(),
     "tuning_verdict": pl.String(),
+    "running_Kc": pl.Float64(),
+    "running_Ti": pl.Float64(),
+    "running_Td": pl.Float64(),
     "pipeline_version": pl.String(),
 }
 
@@ -91,7 +96,24 @@ def history_rows(results: ResultsDoc, run_time: datetime | None) -> pl.DataFrame
                 **{m: _number(metrics.get(m)) for m in METRICS},
                 **(_tuning_columns(rec.tuning) if chosen else {}),
             })
+        if rec.running_loop is not None:
+            rows.append({**base, **_loop_columns(rec.running_loop)})
     return pl.DataFrame(rows, schema=SCHEMA)
+
+
+def _loop_columns(loop) -> dict:
+    """A closed-loop log's row: the plant fitted through the loop (method
+    :data:`pipeline.schema.THROUGH_LOOP`, its parameters) and the running controller's settings."""
+    out: dict = {"method": THROUGH_LOOP, "status": "ok" if loop.plant else "not_applicable",
+                 "recommended": False}
+    if loop.plant is not None:
+        out |= {"structure": loop.plant.structure,
+                **{p: _number(loop.plant.params.get(p)) for p in PARAMETERS}}
+    c = loop.controller
+    if c is not None:
+        out |= {"running_Kc": _number(c.Kc), "running_Ti": _number(c.Ti),
+                "running_Td": _number(c.Td)}
+    return out
 
 
 def _tuning_columns(t) -> dict:

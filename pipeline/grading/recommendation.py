@@ -197,10 +197,12 @@ def candidates(result, crit: str) -> list[Fit]:
     model must earn its parameters, and a model that cannot be trusted is never the answer
     while another can; no integrating model of a record whose responses settle while a
     self-regulating one is left (``no_integrating_evidence``). A graphical reading (no
-    intervals) is a candidate only while no refinement is, or where the refinement of its
-    structure missed on their event (:func:`missed`): the recommended model carries
-    intervals wherever a refinement is left (issue 27 item 1); a reading of a structure
-    whose refinement was set aside (undetermined, unreliable) does not stand in for it."""
+    intervals) is a candidate only while no refinement is, where its structure was not
+    refined at all (not asked for, or the refinement failed), or where the refinement of
+    its structure missed on their event (:func:`missed`): the recommended model carries
+    intervals wherever a refinement of its structure is left (issue 27 item 1); a reading
+    of a structure whose refinement was set aside (undetermined, unreliable) does not
+    stand in for it."""
     fits = [f for f in result.fits if f.ok and f.model is not None
             and math.isfinite(f.metrics.get(crit, math.nan))]
     usable = [f for f in fits if f.verdict != "unreliable"]
@@ -212,8 +214,10 @@ def candidates(result, crit: str) -> list[Fit]:
     refined = [f for f in fits if f.is_refined]
     if not refined:
         return fits
-    return refined + [g for g in fits if not g.is_refined and any(
-        missed(f, g) for f in refined if f.model.structure == g.model.structure)]
+    ran = {f.model.structure for f in result.fits if f.is_refined and f.ok and f.model}
+    return refined + [g for g in fits if not g.is_refined and (
+        g.model.structure not in ran or any(missed(f, g) for f in refined
+                                            if f.model.structure == g.model.structure))]
 
 
 def earns_parameters(complex_: Fit, simple: Fit, level: float = LEVEL) -> bool:

@@ -68,10 +68,11 @@ def _with_setpoint(path: Path, data: DataSection, fmt: Format, record: Record) -
                         f"other time stamps ({other.t.size} rows) than the input "
                         f"({record.t.size}); expected the setpoint logged beside the "
                         "input and output")
-    if other.input_name == record.input_name:
-        raise UserError(f"{path}: data.setpoint {shown_signal(data.setpoint)} is the input "
-                        "itself; expected the closed loop's setpoint, and the controller "
-                        "output as the input")
+    for role, signal in (("input", record.input_name), ("output", record.output_name)):
+        if other.input_name == signal:
+            raise UserError(f"{path}: data.setpoint {shown_signal(data.setpoint)} is the "
+                            f"{role} itself; expected the closed loop's setpoint beside "
+                            "the controller output (the input) and the measurement")
     return with_setpoint(record, other.u, other.input_name)
 
 

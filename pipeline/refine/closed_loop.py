@@ -43,6 +43,7 @@ from scipy.signal import lfilter
 from ..models import STRUCTURES, ProcessModel
 from ..simulation import filter_of
 from ..uncertainty import covariance, t_quantile, variance_factor
+from .refinement import INTEGER_PARAMS, canonical
 from .search import FTOL, search_space
 
 
@@ -127,23 +128,39 @@ def fit_through_loop(t, r, y, controller: Controller, structure: str,
                      start: Mapping[str, float], *, max_nfev: int = 200,
                      level: float = 0.95) -> ClosedLoopFit:
     """The plant ``structure`` fitted to the closed loop's ``r -> y`` on the uniform grid
-    ``t``, the ``controller`` known, from the parameters ``start`` (module docstring).
-    Raises ValueError on an irregular grid or a structure without an exact filter."""
+    ``t``, the ``controller`` known, from the parameters ``start`` (module docstring). The
+    gain's sign is the controller's (a loop that regulates feeds back negatively: ``Kc``
+    carries the process gain's sign); an order (:data:`pipeline.refine.refinement.
+    INTEGER_PARAMS`) is held at the start's, rounded. Raises ValueError, with the reason,
+    where it cannot be fitted: an irregular grid, a setpoint that never changes, a
+    structure without an exact filter or with direct feedthrough (a sampled controller
+    cannot react within its own sample), a search that does not converge or a loop the
+    data do not determine."""
     t, r, y = (np.asarray(a, np.float64) for a in (t, r, y))
     h = float(np.median(np.diff(t)))
     if not h > 0 or np.max(np.abs(np.diff(t) - h)) > 0.01 * h:
         raise ValueError("the loop's log must be sampled uniformly (within 1 %)")
-    if loop_filter(structure, start, controller, h) is None:
+    if not np.ptp(r) > 0:
+        raise ValueError("the setpoint never changes: nothing drives the loop to fit the "
+                         "plant from (a regulation log: its loads are not measured)")
+    spec = STRUCTURES[structure]
+    fixed = {n: float(max(round(float(start[n])), 1)) for n in spec.params
+             if n in INTEGER_PARAMS}
+    k_sign = math.copysign(1.0, controller.Kc if controller.Kc else float(start["K"]))
+    first = {**start, **fixed, "K": k_sign * max(abs(float(start["K"])), 1e-12)}
+    f0 = filter_of(structure, first, h)
+    if f0 is None:
         raise ValueError(f"a {structure.replace('_', ' ')} model has no exact discrete "
                          "filter of order 1 or 2 to close the loop with")
-    spec = STRUCTURES[structure]
-    names = [n for n in spec.params if n != "K"]
+    if f0.lag == 0:
+        raise ValueError(f"the {structure.replace('_', ' ')} model responds within its own "
+                         "sample (direct feedthrough): a sampled loop cannot be closed on it")
+    names = [n for n in spec.params if n != "K" and n not in fixed]
     span = float(t[-1] - t[0])
     space = search_space(structure, names, h, span)
-    k_sign = math.copysign(1.0, float(start["K"]))
 
     def params_of(z: np.ndarray) -> dict[str, float]:
-        return {"K": k_sign * math.exp(z[0]), **space.from_z(z[1:])}
+        return {"K": k_sign * math.exp(z[0]), **space.from_z(z[1:]), **fixed}
 
     def residual(z: np.ndarray) -> np.ndarray:
         sim = loop_response(structure, params_of(z), controller, h, r)
@@ -152,32 +169,43 @@ def fit_through_loop(t, r, y, controller: Controller, structure: str,
         e = y - sim
         return e - float(np.mean(e))  # the offset, solved linearly
 
-    z0 = np.r_[math.log(abs(float(start["K"]))), space.to_z(start)]
+    z0 = np.r_[math.log(abs(first["K"])), space.to_z(first)]
     lo, hi = np.r_[-50.0, space.lo], np.r_[50.0, space.hi]
-    res = least_squares(residual, z0, bounds=(lo, hi), method="trf", ftol=FTOL, xtol=FTOL,
-                        max_nfev=max_nfev)
-    p = params_of(res.x)
+    try:
+        res = least_squares(residual, z0, bounds=(lo, hi), method="trf", ftol=FTOL,
+                            xtol=FTOL, max_nfev=max_nfev)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise ValueError(f"the fit through the loop failed ({exc})") from None
     e = residual(res.x)
+    rms = float(np.sqrt(np.mean(e * e)))
+    if res.status <= 0 or not rms < 1e100:
+        raise ValueError("the fit through the loop did not converge (the loop is unstable "
+                         "with the start's plant, or the search stopped after "
+                         f"{res.nfev} evaluations)")
+    p = params_of(res.x)
     sim = loop_response(structure, p, controller, h, r)
-    offset = float(np.mean(y - sim)) if sim is not None else math.nan
+    offset = float(np.mean(y - sim))
     factor = variance_factor(e)
     cov = covariance(res.jac, e, res.x.size + 1, factor)
     se_z = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    if not np.all(np.isfinite(se_z)) or not np.all(se_z > 0):
+        raise ValueError("the loop's response does not determine the plant's parameters "
+                         "(the setpoint's steps do not excite it)")
     q = t_quantile(max(e.size / factor - res.x.size - 1, 10.0), level)
-    keys = ["K", *space.names]
     is_log = np.r_[True, space.log]
     scale = np.r_[1.0, space.scale]
     ci, std = {}, {}
-    for i, n in enumerate(keys):
+    for i, n in enumerate(["K", *space.names]):
         v = p[n]
         if is_log[i]:
             lo_v, hi_v = abs(v) * math.exp(-q * se_z[i]), abs(v) * math.exp(q * se_z[i])
             lo_v, hi_v = (lo_v, hi_v) if v >= 0 else (-hi_v, -lo_v)
             std[n] = abs(v) * float(se_z[i])
-        else:
+        else:  # the dead time: not below its bound
             half = q * float(se_z[i]) * scale[i]
-            lo_v, hi_v = v - half, v + half
+            lo_v, hi_v = max(v - half, spec.bounds.get(n, (-math.inf, 0))[0]), v + half
             std[n] = float(se_z[i] * scale[i])
         ci[n] = (float(lo_v), float(hi_v))
-    return ClosedLoopFit(ProcessModel(structure, p), ci, std, offset,
-                         float(np.sqrt(np.mean(e * e))), factor, int(res.nfev))
+    p, ci, std = canonical(structure, p, ci, std)
+    return ClosedLoopFit(ProcessModel(structure, p), ci, std, offset, rms, factor,
+                         int(res.nfev))

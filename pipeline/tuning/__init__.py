@@ -16,10 +16,17 @@
 - :mod:`.doc` - a record's tuning (:class:`RecordTuning`) as results.json carries it.
 """
 
+from ..schema import THROUGH_LOOP
 from .controller import CONTROLLER_KINDS, Controller, ControllerKind
-from .doc import UNTRUSTED_FLAGS, RecordTuning, model_trust, running_loop_doc, tuning_doc
+from .doc import (
+    UNTRUSTED_FLAGS,
+    RecordTuning,
+    model_trust,
+    running_loop_doc,
+    through_loop_trust,
+    tuning_doc,
+)
 from .log_loop import (
-    THROUGH_LOOP,
     LoopReading,
     SetpointStep,
     read_loop,
@@ -47,14 +54,14 @@ from .tuner import (
 )
 
 __all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_FACTORS",
-           "THROUGH_LOOP",
-           "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller", "ControllerForm",
-           "ControllerKind", "KindChoice", "LoopReading", "LoopResponse", "Margins",
-           "OvershootTest", "Pid", "RecordTuning", "Reduced", "RuleName",
-           "RuleSettings", "RunningController", "SetpointStep", "StepMetrics",
-           "TimeUnit", "Tuning", "TuningOptions", "TuningVerdict", "WorstCase",
-           "identify_controller", "loop_margins", "model_trust", "nominal_margins",
-           "parameter_sets", "read_loop", "read_setpoint_step", "reduce", "reduce_lags",
-           "running_loop_doc", "sensitivity_peaks", "setpoint_overshoot_pi",
-           "setpoint_steps", "simulate_loop", "tune", "tune_rule", "tuning_doc", "with_plant",
+           "THROUGH_LOOP", "TUNING_VERDICTS", "UNTRUSTED_FLAGS", "Controller",
+           "ControllerForm", "ControllerKind", "KindChoice", "LoopReading",
+           "LoopResponse", "Margins", "OvershootTest", "Pid", "RecordTuning", "Reduced",
+           "RuleName", "RuleSettings", "RunningController", "SetpointStep",
+           "StepMetrics", "TimeUnit", "Tuning", "TuningOptions", "TuningVerdict",
+           "WorstCase", "identify_controller", "loop_margins", "model_trust",
+           "nominal_margins", "parameter_sets", "read_loop", "read_setpoint_step",
+           "reduce", "reduce_lags", "running_loop_doc", "sensitivity_peaks",
+           "setpoint_overshoot_pi", "setpoint_steps", "simulate_loop",
+           "through_loop_trust", "tune", "tune_rule", "tuning_doc", "with_plant",
            "worst_case"]

@@ -79,6 +79,14 @@ def model_trust(verdict: str, flag_codes, warned_codes) -> tuple[bool, str]:
     return True, ""
 
 
+def through_loop_trust(record_flag_codes) -> tuple[bool, str]:
+    """:func:`model_trust` of the plant fitted through a closed loop (the indirect
+    approach): the record's flags count, but ``closed_loop_suspected``, which says the
+    direct fit is from a loop: the fit through the loop is its remedy."""
+    return model_trust("ok", (c for c in record_flag_codes if c != "closed_loop_suspected"),
+                       ())
+
+
 def _num(v: float) -> float | None:
     return float(v) if v is not None and math.isfinite(v) else None
 

@@ -31,9 +31,6 @@ from .running import RunningController, identify_controller
 #: of the setpoint's range (a setpoint is piecewise constant; a ramped setpoint has no
 #: step to read an overshoot from).
 STEP_SHARE = 0.05
-#: The method a tuning from the plant fitted through the loop names as its source
-#: (results.json ``tuning.method``; :func:`pipeline.analysis.tuned`).
-THROUGH_LOOP = "plant_through_loop"
 #: The running controller is known well enough to fit the plant through the loop when its
 #: settings explain the controller output to within this share of its spread.
 CONTROLLER_SHARE = 0.05

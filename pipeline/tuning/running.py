@@ -17,7 +17,8 @@ derivative until ``Td`` moves by less than 1e-9 of itself or of the sample time 
 fixed point: the filter is ten times faster than the derivative it smooths; a
 controller whose filter is ``min(Td, Ti) / N``, as
 :meth:`pipeline.tuning.controller.Controller.ideal` makes it, is read the same unless
-``Ti < Td``). The kind is the simplest the log supports: the derivative and the
+``Ti < Td``; the controller returned carries the ``Tf = Td / N`` it was read with). The
+kind is the simplest the log supports: the derivative and the
 integral terms are kept where their coefficients are beyond :data:`Z_TERM` standard
 errors. Standard errors are the least-squares ones scaled by
 the residuals' long-run variance factor (:func:`pipeline.uncertainty.variance_factor`);
@@ -27,7 +28,7 @@ the residuals' long-run variance factor (:func:`pipeline.uncertainty.variance_fa
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.signal import lfilter
@@ -135,5 +136,8 @@ def identify_controller(t, r, y, u, *, filter_n: float = DERIVATIVE_FILTER_N
         std["Td"] = math.sqrt(max(float(grad @ cov[np.ix_(idx, idx)] @ grad), 0.0))
     spread = float(np.std(u))
     share = float(np.sqrt(np.mean(res * res))) / spread if spread > 0 else 0.0
-    return RunningController(Controller.ideal(kc, ti, td, n=filter_n), std, float(c[0]),
-                             share, converged)
+    # the filter the settings were read with (Td/N), also where Ti < Td (ideal() would
+    # take min(Td, Ti)/N there): the loop these settings describe is the one fitted
+    ctl = Controller.ideal(kc, ti, td, n=filter_n)
+    ctl = replace(ctl, Tf=td / filter_n) if td > 0 else ctl
+    return RunningController(ctl, std, float(c[0]), share, converged)
