@@ -152,3 +152,41 @@ def test_what_cannot_be_read_says_why():
     assert odd.running is None and "uniformly" in odd.reason
     assert [s.reason for s in odd.steps] == ["the running controller could not be read"]
     assert math.isclose(odd.steps[0].change, 1.0)
+
+
+def test_an_mcap_setpoint_topic_is_held_onto_the_grid(tmp_path):
+    """A setpoint on a topic of its own, first published 0.7 s after the command: held from
+    its previous value onto the record's grid (a setpoint holds until changed), its first
+    value before it, with a note; the same grid as without the setpoint."""
+    from mcap_ros2.writer import Writer
+
+    from pipeline.io import SignalConfig, load_record
+    from pipeline.io.options import DataConfig
+    from pipeline.synth.mcap_example import EXAMPLE, PLATE_TEMPERATURE, example_messages
+
+    stamps = np.arange(0.7, 301.0, 1.0)
+    values = np.where(stamps < 30, 35.0, np.where(stamps < 160, 47.0, 41.0))
+    msgs = example_messages() + [(EXAMPLE["start_ns"] + int(round(t * 1e9)), "/lamp/sp",
+                                  {"data": float(v)}) for t, v in zip(stamps, values,
+                                                                       strict=True)]
+    path = tmp_path / "loop.mcap"
+    with open(path, "wb") as fh:
+        w = Writer(fh)
+        schemas = {"/lamp/cmd": w.register_msgdef("std_msgs/msg/Float64", "float64 data"),
+                   "/lamp/sp": w.register_msgdef("std_msgs/msg/Float64", "float64 data"),
+                   "/plate/temp": w.register_msgdef("plant_msgs/msg/PlateTemperature",
+                                                    PLATE_TEMPERATURE)}
+        for stamp, topic, m in sorted(msgs, key=lambda x: x[0]):
+            w.write_message(topic, schemas[topic], m, log_time=stamp)
+        w.finish()
+    data = {"path": str(path), "format": "mcap",
+            "input": SignalConfig(topic="/lamp/cmd", field="data"),
+            "output": SignalConfig(topic="/plate/temp", field="temperature.value")}
+    plain = load_record(path, DataConfig(**data))
+    rec = load_record(path, DataConfig(**data, setpoint=SignalConfig(topic="/lamp/sp",
+                                                                     field="data")))
+    assert np.array_equal(rec.t, plain.t) and plain.r is None
+    t = rec.t  # t = 0 is the log's start, as the setpoint's stamps are
+    assert np.all(rec.r[t < 30.7] == 35.0) and np.all(rec.r[t > 160.7] == 41.0)
+    assert np.all(rec.r[(t > 30.7) & (t < 160.7)] == 47.0)
+    assert any("taken as held before it" in n for n in rec.notes)

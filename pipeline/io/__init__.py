@@ -13,6 +13,7 @@ one grid.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -56,24 +57,37 @@ def _with_setpoint(path: Path, data: DataSection, fmt: Format, record: Record) -
     """``record`` with the setpoint ``data.setpoint`` read from the same file: the file
     loaded again with the setpoint as its input, by the same loader and policies (so every
     format that reads an input reads a setpoint, and a row the policies drop or merge is
-    dropped or merged for both); the time stamps must come out the same."""
+    dropped or merged for both); the time stamps must come out the same, but for a
+    topic of its own (MCAP), which is held onto the record's grid as the input is."""
     again = data.model_copy(update={"input": data.setpoint, "setpoint": None,
                                     "initial_input": None})
     try:
         other = fmt.load(path, again, options_for(again, fmt, str(path)), record.name)
     except UserError as exc:  # the loader names the column as the input's: say which key
         raise UserError(f"{exc} (reading data.setpoint)") from None
-    if not np.array_equal(other.t, record.t):
-        raise UserError(f"{path}: data.setpoint {shown_signal(data.setpoint)} is read on "
-                        f"other time stamps ({other.t.size} rows) than the input "
-                        f"({record.t.size}); expected the setpoint logged beside the "
-                        "input and output")
     for role, signal in (("input", record.input_name), ("output", record.output_name)):
         if other.input_name == signal:
             raise UserError(f"{path}: data.setpoint {shown_signal(data.setpoint)} is the "
                             f"{role} itself; expected the closed loop's setpoint beside "
                             "the controller output (the input) and the measurement")
-    return with_setpoint(record, other.u, other.input_name)
+    if np.array_equal(other.t, record.t):
+        return with_setpoint(record, other.u, other.input_name)
+    if not isinstance(data.setpoint, SignalConfig):  # a table's rows are the same rows
+        raise UserError(f"{path}: data.setpoint {shown_signal(data.setpoint)} is read on "
+                        f"other time stamps ({other.t.size} rows) than the input "
+                        f"({record.t.size}); expected the setpoint logged beside the "
+                        "input and output")
+    # a topic of its own (MCAP): held from its previous value onto the record's grid, as
+    # the input is (a setpoint holds until it is changed); before its first value, that
+    # value, with a note
+    k = np.searchsorted(other.t, record.t, side="right") - 1
+    held = other.u[np.maximum(k, 0)]
+    out = with_setpoint(record, held, other.input_name)
+    if k[0] < 0:
+        out = replace(out, notes=(*out.notes, f"setpoint {other.input_name}: its first value "
+                                  f"(at t = {float(other.t[0]):.6g} s) is taken as held "
+                                  "before it"))
+    return out
 
 
 def shown_signal(signal) -> str:
