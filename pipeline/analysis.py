@@ -27,7 +27,14 @@ import numpy as np
 
 from .events import EventData
 from .fit import Fit
-from .grading import grade, information_criteria, no_usable_model, per_step, recommend
+from .grading import (
+    grade,
+    information_criteria,
+    no_usable_model,
+    per_step,
+    ranked,
+    recommend,
+)
 from .methods import REGISTRY, event_fit, identify, select_methods, span_refinement
 from .metrics import mse
 from .outliers import without_outliers
@@ -137,14 +144,25 @@ def analyse(record: Record, options: AnalysisOptions | None = None, *,
 
 def _through_loop(result: RecordResult, record: Record, chosen: Fit | None) -> RecordResult:
     """A closed-loop log's reading with the plant fitted through the loop (the indirect
-    approach, :func:`pipeline.tuning.with_plant`), from the recommended direct fit."""
+    approach, :func:`pipeline.tuning.with_plant`), from the recommended direct fit; where
+    its structure cannot be closed (no exact filter of order 1 or 2, a direct
+    feedthrough), from the event's other refinements of other structures in the order
+    of the recommendation's criterion (the first reason is kept if none can)."""
     if result.loop is None:
         return result
     if chosen is None or chosen.model is None:
         return replace(result, loop=replace(result.loop, plant_reason=(
             "no usable direct fit of the plant to start the loop's fit from")))
-    return replace(result, loop=with_plant(result.loop, record.t, record.r, record.y,
-                                           chosen.model.structure, chosen.model.params))
+    others = [f for f in ranked(result, chosen.event) if f.is_refined and f.model is not None
+              and f.model.structure != chosen.model.structure]
+    first = None
+    for f in [chosen, *others]:
+        loop = with_plant(result.loop, record.t, record.r, record.y, f.model.structure,
+                          f.model.params)
+        if loop.plant is not None:
+            return replace(result, loop=loop)
+        first = first or loop
+    return replace(result, loop=first)
 
 
 def tuned(result: RecordResult, options: TuningOptions) -> RecordTuning | None:

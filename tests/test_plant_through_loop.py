@@ -196,3 +196,30 @@ def test_no_setpoint_change_and_direct_feedthrough_are_refused():
     with pytest.raises(ValueError, match="direct feedthrough"):
         fit_through_loop(rec.t, _setpoint(rec.t), rec.y, c, "lead_lag",
                          {"K": 2.0, "Tz": 4.0, "T": 10.0, "delay": 0.0})
+
+
+def test_a_structure_that_cannot_be_closed_falls_back_to_the_next_refinement():
+    """The recommended direct fit's structure has no exact filter to close the loop with
+    (three equal lags): the plant is fitted through the loop from the event's next
+    refinement (first order), right within 2 %; with no other refinement, the reason."""
+    from dataclasses import replace
+
+    from pipeline.analysis import AnalysisOptions, _through_loop, analyse
+    from pipeline.models import ProcessModel
+    from pipeline.record import with_setpoint
+
+    rec = loop_record("fopdt", "PI", noise=0.05, seed=7, setpoints=SETPOINTS)
+    rec = with_setpoint(rec, _setpoint(rec.t), "r")
+    for methods, fallback in ((("lsq_first_order", "lsq_n_lags"), True),
+                              (("lsq_n_lags",), False)):
+        res = analyse(rec, AnalysisOptions(methods=methods, tuning=None))
+        chain = res.fit("lsq_n_lags", res.recommended.event)
+        three = replace(chain, model=ProcessModel("n_lags", {**chain.model.params,
+                                                             "n": 3.0}))
+        loop = _through_loop(replace(res, loop=replace(res.loop, plant=None)), rec,
+                             three).loop
+        if fallback:
+            assert loop.plant.model.structure == "first_order"
+            assert loop.plant.model.params["K"] == pytest.approx(2.0, rel=0.02)
+        else:
+            assert loop.plant is None and "no exact discrete filter" in loop.plant_reason

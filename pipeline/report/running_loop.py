@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from ..tuning import LoopReading
-from .tables import Cell, Table, fmt
+from .tables import Cell, Table, _unit, fmt
 
 
 def _gain_unit(units: dict[str, str]) -> str:
@@ -62,17 +62,24 @@ def steps_table(reading: LoopReading, units: dict[str, str]) -> Table:
     return tab
 
 
-def plant_summary(reading: LoopReading, direct=None) -> str:
-    """The plant fitted through the loop in one line, with the direct fit ``direct`` (the
-    recommended fit from the controller output) against its intervals: the direct
-    approach's bias where a parameter falls outside them."""
+def plant_summary(reading: LoopReading, direct=None, units: dict[str, str] | None = None
+                  ) -> str:
+    """The plant fitted through the loop in one line, its parameters in the record's
+    ``units`` with their 95 % intervals, and the direct fit ``direct`` (the recommended
+    fit from the controller output) against them: the direct approach's bias where a
+    parameter falls outside them."""
     pl = reading.plant
     if pl is None:
         return f"not fitted: {reading.plant_reason}" if reading.plant_reason else ""
     parts = []
     for n, v in pl.model.params.items():
-        lo, hi = pl.ci95.get(n, (math.nan, math.nan))
-        parts.append(f"{n} {fmt(v)} [{fmt(lo, 3)}, {fmt(hi, 3)}]")
+        unit = _unit(n, units, pl.model.structure)
+        unit = f" {unit}" if unit else ""
+        if n in pl.ci95:
+            lo, hi = pl.ci95[n]
+            parts.append(f"{n} {fmt(v)}{unit} [{fmt(lo, 3)}, {fmt(hi, 3)}]")
+        else:
+            parts.append(f"{n} {fmt(v)}{unit} (held)")
     text = f"{pl.model.structure.replace('_', ' ')}: " + ", ".join(parts) + " (95 %)"
     if direct is not None and direct.model is not None and \
             direct.model.structure == pl.model.structure:
@@ -89,7 +96,7 @@ def running_loop_lines(reading: LoopReading, units: dict[str, str], direct=None
     """The reading in a few plain lines for the terminal."""
     lines = [f"Running controller (setpoint '{reading.setpoint}'): "
              f"{running_summary(reading, units)}"]
-    plant = plant_summary(reading, direct)
+    plant = plant_summary(reading, direct, units)
     if plant:
         lines.append(f"  plant through the loop (indirect, the setpoint to the output): {plant}")
     gu = _gain_unit(units)
@@ -110,5 +117,5 @@ def running_loop_context(reading: LoopReading | None, units: dict[str, str], dir
     if reading is None:
         return None
     return {"setpoint": reading.setpoint, "summary": running_summary(reading, units),
-            "plant": plant_summary(reading, direct),
+            "plant": plant_summary(reading, direct, units),
             "steps": steps_table(reading, units) if reading.steps else None}
