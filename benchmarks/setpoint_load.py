@@ -26,27 +26,23 @@ from pathlib import Path
 import numpy as np
 
 CHILD = r"""
-import json, sys, time
+import json, re, sys, time
 import pipeline
 
 with_sp, path, warm = sys.argv[1] == "1", sys.argv[2], sys.argv[3]
 keys = {"input": "u", "output": "y", "time": "t", **({"setpoint": "r"} if with_sp else {})}
 pipeline.load(warm, **keys)
 
-def status(key):
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith(key):
-                return int(line.split()[1]) * 1024
-    return 0
+def kib(field):  # a /proc/self/status field, in bytes
+    text = open("/proc/self/status").read()
+    return int(re.search(field + r":\s+(\d+)", text).group(1)) * 1024
 
-with open("/proc/self/clear_refs", "w") as f:
-    f.write("5")
-rss0 = status("VmRSS:")
+open("/proc/self/clear_refs", "w").write("5")  # the peak (VmHWM) from here
+rss0 = kib("VmRSS")
 cpu = time.process_time()
 rec = pipeline.load(path, **keys)
 cpu = time.process_time() - cpu
-print(json.dumps({"cpu": cpu, "hwm": status("VmHWM:") - rss0, "rows": rec.n_samples,
+print(json.dumps({"cpu": cpu, "hwm": kib("VmHWM") - rss0, "rows": rec.n_samples,
                   "r": rec.r is not None}))
 """
 
