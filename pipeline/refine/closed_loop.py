@@ -40,10 +40,11 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import lfilter
 
+from ..fit import ParameterCovariance
 from ..models import STRUCTURES, ProcessModel
 from ..simulation import filter_of
 from ..uncertainty import covariance, t_quantile, variance_factor
-from .refinement import INTEGER_PARAMS, canonical
+from .refinement import INTEGER_PARAMS, MIN_DOF, canonical, intervals
 from .search import FTOL, search_space
 
 
@@ -191,21 +192,17 @@ def fit_through_loop(t, r, y, controller: Controller, structure: str,
     if not np.all(np.isfinite(se_z)) or not np.all(se_z > 0):
         raise ValueError("the loop's response does not determine the plant's parameters "
                          "(the setpoint's steps do not excite it)")
-    q = t_quantile(max(e.size / factor - res.x.size - 1, 10.0), level)
-    is_log = np.r_[True, space.log]
-    scale = np.r_[1.0, space.scale]
-    ci, std = {}, {}
-    for i, n in enumerate(["K", *space.names]):
-        v = p[n]
-        if is_log[i]:
-            lo_v, hi_v = abs(v) * math.exp(-q * se_z[i]), abs(v) * math.exp(q * se_z[i])
-            lo_v, hi_v = (lo_v, hi_v) if v >= 0 else (-hi_v, -lo_v)
-            std[n] = abs(v) * float(se_z[i])
-        else:  # the dead time: not below its bound
-            half = q * float(se_z[i]) * scale[i]
-            lo_v, hi_v = max(v - half, spec.bounds.get(n, (-math.inf, 0))[0]), v + half
-            std[n] = float(se_z[i] * scale[i])
-        ci[n] = (float(lo_v), float(hi_v))
+    q = t_quantile(max(e.size / factor - res.x.size - 1, MIN_DOF), level)
+    # the gain was searched as log|K|: its coordinate as the refinement's intervals take
+    # it, K itself, by the delta method (dK = K dlog|K|), after the searched parameters
+    k = p["K"]
+    d = np.r_[k, np.ones(len(space.names))]
+    order = [*range(1, res.x.size), 0]
+    cov_k = (cov * np.outer(d, d))[np.ix_(order, order)]
+    cov_z = ParameterCovariance(
+        (*space.names, "K"), (*map(bool, space.log), False), (*map(float, space.scale), 1.0),
+        (*map(float, res.x[1:]), k), tuple(tuple(map(float, row)) for row in cov_k))
+    ci, std = intervals(structure, cov_z, p, q)
     p, ci, std = canonical(structure, p, ci, std)
     return ClosedLoopFit(ProcessModel(structure, p), ci, std, offset, rms, factor,
                          int(res.nfev))

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import math
 
-from ..tuning import LoopReading
+from ..tuning import LoopReading, controller_gain_unit
 from .tables import Cell, Table, _unit, fmt
 
 
 def _gain_unit(units: dict[str, str]) -> str:
-    return f" {units['input']}/{units['output']}" if units.get("input") and \
-        units.get("output") else ""
+    unit = controller_gain_unit(units)
+    return f" {unit}" if unit else ""
 
 
 def _setting(v: float, se: float | None, unit: str = "") -> str:

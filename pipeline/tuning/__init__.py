@@ -21,6 +21,7 @@ from .controller import CONTROLLER_KINDS, Controller, ControllerKind
 from .doc import (
     UNTRUSTED_FLAGS,
     RecordTuning,
+    controller_gain_unit,
     model_trust,
     running_loop_doc,
     through_loop_trust,
@@ -59,9 +60,9 @@ __all__ = ["CONTROLLER_KINDS", "FRAGILE_MS", "MS_TARGET", "RULE_NAMES", "TAU_C_F
            "LoopResponse", "Margins", "OvershootTest", "Pid", "RecordTuning", "Reduced",
            "RuleName", "RuleSettings", "RunningController", "SetpointStep",
            "StepMetrics", "TimeUnit", "Tuning", "TuningOptions", "TuningVerdict",
-           "WorstCase", "identify_controller", "loop_margins", "model_trust",
-           "nominal_margins", "parameter_sets", "read_loop", "read_setpoint_step",
-           "reduce", "reduce_lags", "running_loop_doc", "sensitivity_peaks",
-           "setpoint_overshoot_pi", "setpoint_steps", "simulate_loop",
-           "through_loop_trust", "tune", "tune_rule", "tuning_doc", "with_plant",
-           "worst_case"]
+           "WorstCase", "controller_gain_unit", "identify_controller", "loop_margins",
+           "model_trust", "nominal_margins", "parameter_sets", "read_loop",
+           "read_setpoint_step", "reduce", "reduce_lags", "running_loop_doc",
+           "sensitivity_peaks", "setpoint_overshoot_pi", "setpoint_steps",
+           "simulate_loop", "through_loop_trust", "tune", "tune_rule", "tuning_doc",
+           "with_plant", "worst_case"]

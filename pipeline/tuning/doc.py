@@ -50,8 +50,13 @@ class RecordTuning:
     @property
     def gain_unit(self) -> str:
         """The controller gain's unit: input unit per output unit."""
-        u, y = self.units.get("input", ""), self.units.get("output", "")
-        return f"{u}/{y}" if u or y else ""
+        return controller_gain_unit(self.units)
+
+
+def controller_gain_unit(units: dict[str, str]) -> str:
+    """A controller gain's unit for a record's ``units``: input unit per output unit."""
+    u, y = units.get("input", ""), units.get("output", "")
+    return f"{u}/{y}" if u or y else ""
 
 
 #: Flags under which a model's tuning is never called robust (the model may not be the
