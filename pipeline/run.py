@@ -359,6 +359,10 @@ def _plan(cfg: RunConfig, out_dir: Path | None, executor: str, baseline: Path | 
         if path is not None:
             check_writable(through_link(Path(path), what), what)  # where the write goes
             refuse_input(Path(path), what, inputs)
+            owned = report.owned_file(Path(target), Path(path))
+            if owned:
+                raise UserError(f"{path}: is the report's own {owned} in {target}, which "
+                                f"each run replaces; give the {what} another path")
             inputs.append((Path(path), f"the {what}"))
     if junit is not None:
         report.refuse_foreign_junit(Path(junit))

@@ -11,6 +11,7 @@ _EXPORTS = {
     "Extras": "build", "write_run": "build",
     "baseline_reference": "history_plots", "history_figures": "history_plots",
     "write_junit": "junit", "refuse_foreign_junit": "junit", "check_target": "outdir",
+    "owned_file": "outdir",
     "gate_lines": "regressions",
     "fmt": "tables", "PARAMETERS_COLUMN": "tables",
     "ranking_table": "tables", "recommended_box": "tables",

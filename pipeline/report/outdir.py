@@ -82,6 +82,26 @@ def check_target(out_dir: Path) -> None:
     check_writable(Path(out_dir) / "plots", "report's plots folder", folder=True)
 
 
+def owned_file(out_dir: Path, path: Path) -> str | None:
+    """What of the run's own in ``out_dir`` ``path`` names (a report, the manifest, the
+    lock, anything under ``plots/`` or a staging folder), else None: a JUnit file or a
+    history there would be replaced by the run's publish, or replace the report (issue
+    31: ``--junit OUT/results.json`` left the JUnit XML as results.json, exit 0, and the
+    next night's ``--baseline OUT/results.json`` was refused as not JSON)."""
+    try:
+        rel = Path(os.path.realpath(path)).relative_to(os.path.realpath(out_dir))
+    except ValueError:
+        return None
+    parts = rel.parts
+    if not parts:
+        return "report folder"
+    if len(parts) == 1 and parts[0] in (*OWNED, MANIFEST, LOCK):
+        return parts[0]
+    if parts[0] == "plots" or parts[0].startswith(STAGING):
+        return f"{parts[0]} folder"
+    return None
+
+
 def plots_link(out_dir: Path) -> str | None:
     """Why ``OUT/plots`` may not be written, when it is a symbolic link (else None): a run
     writes and removes its plots only inside the output folder, never through a link that
