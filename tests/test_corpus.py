@@ -7,6 +7,7 @@ place that runs them and holds the promises every row shares.
 from __future__ import annotations
 
 import importlib
+import os
 import pkgutil
 import re
 
@@ -41,6 +42,10 @@ def test_hostile(case: corpus.Hostile, tmp_path, monkeypatch):
             path.write_bytes(content)
         else:
             path.write_text(content, encoding="utf-8")
+    for name, target in case.links.items():
+        link = tmp_path / name
+        link.parent.mkdir(parents=True, exist_ok=True)
+        os.symlink(target.replace("{d}", str(tmp_path)), link)
     before = {k: (tmp_path / k).read_bytes() for k in case.keep}
     monkeypatch.chdir(tmp_path)
     args = [a.replace("{d}", str(tmp_path)) for a in case.args]
@@ -54,6 +59,8 @@ def test_hostile(case: corpus.Hostile, tmp_path, monkeypatch):
     assert len(lines) <= case.max_lines, err
     for needle in case.stderr:
         assert needle in err, err
+    for secret in case.absent:
+        assert secret not in err and secret not in result.stdout, "a planted secret leaked"
     assert not re.search(r"\x1b\[", err), "raw terminal escape on stderr"
     leftovers = [p for p in tmp_path.rglob("*") if ".tmp-" in p.name or p.suffix == ".tmp"]
     assert not leftovers, leftovers

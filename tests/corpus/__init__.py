@@ -7,9 +7,12 @@ folder, and checks what a platform team relies on: the exit code, at most
 user's own files kept (``keep``) and, where a row says so, its own check.
 
 A row's ``files`` are written into the case folder first (``str`` as UTF-8, ``bytes`` as
-is; a name may hold a folder). ``args`` are the CLI arguments after ``pipeline``; ``{d}``
-in an argument is replaced by the case folder. The CLI runs with the case folder as the
-working directory.
+is; a name may hold a folder), then its ``links``: symbolic links, name -> target as
+``os.symlink`` takes it (relative to the link's folder; ``{d}`` is the case folder), so a
+dangling link, a loop of links and a link to ``.`` can be rows too. ``absent`` are
+substrings that neither stdout nor stderr may hold (a secret the row planted). ``args``
+are the CLI arguments after ``pipeline``; ``{d}`` in an argument is replaced by the case
+folder. The CLI runs with the case folder as the working directory.
 """
 
 from __future__ import annotations
@@ -31,6 +34,8 @@ class Hostile:
     keep: tuple[str, ...] = ()                 # files (from `files`) that must be unchanged
     max_lines: int = 3                         # stderr lines at most
     check: Callable[[Path], None] | None = None  # more assertions on the case folder
+    links: dict[str, str] = field(default_factory=dict)  # symbolic links: name -> target
+    absent: tuple[str, ...] = ()               # substrings stdout and stderr must not hold
 
 
 def step_csv(*, K: float = 2.0, T: float = 5.0, dt: float = 0.5, n: int = 400,
