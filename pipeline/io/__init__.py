@@ -23,6 +23,7 @@ from ..record import Record, with_setpoint
 from .base import DataSection, Format, SignalConfig
 from .datasets import dataset, fetch, load_registry, shown_source
 from .mcap import format_inspect, inspect_mcap
+from .native import panic_text_held
 from .options import DataConfig, check_file, check_section, does_not_apply, options_for
 from .paths import files_named
 from .registry import FORMATS, SUFFIXES, find_format, format_of
@@ -42,8 +43,11 @@ def load_record(path: Path, data: DataSection, name: str | None = None) -> Recor
         raise UserError(f"{path}: file not found")
     fmt = format_of(path, data.format)
     try:
-        record = fmt.load(path, data, options_for(data, fmt, str(path)), name or path.stem)
-        return record if data.setpoint is None else _with_setpoint(path, data, fmt, record)
+        with panic_text_held():
+            record = fmt.load(path, data, options_for(data, fmt, str(path)),
+                              name or path.stem)
+            return record if data.setpoint is None else _with_setpoint(path, data, fmt,
+                                                                       record)
     except BaseException as exc:
         # a native reader's panic (polars, pyo3: a BaseException, which no `except
         # Exception` stops) on a damaged file it does not check is the file's fault
