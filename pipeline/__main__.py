@@ -1,11 +1,12 @@
 """``python -m pipeline`` and the ``pipeline`` command: the command line, in a process that
 is the command's own, so polars' allocator is set up first (:func:`pipeline.memory.
 polars_returns_freed_pages`, before anything imports polars; pool workers inherit it), and
-glibc's mmap threshold fixed (:func:`pipeline.memory.large_arrays_mapped`), and one
+glibc's mmap threshold fixed (:func:`pipeline.memory.large_arrays_mapped`), its arenas
+few (:func:`pipeline.memory.few_malloc_arenas`), and one
 native BLAS thread (:func:`pipeline.threads.one_native_thread`); a closed stdout or stderr
 is held on /dev/null before anything opens a file (:func:`_hold_closed_streams`)."""
 
-from .memory import large_arrays_mapped, polars_returns_freed_pages
+from .memory import few_malloc_arenas, large_arrays_mapped, polars_returns_freed_pages
 from .threads import one_native_thread
 
 
@@ -13,6 +14,7 @@ def main() -> None:
     _hold_closed_streams()
     polars_returns_freed_pages()
     large_arrays_mapped()
+    few_malloc_arenas()
     one_native_thread()
     from .cli import StdoutError, app, guard_stdout, report_stdout_failure
     from .errors import ExitCode

@@ -83,6 +83,30 @@ def large_arrays_mapped() -> None:
         os.environ["MALLOC_MMAP_THRESHOLD_"] = str(MMAP_THRESHOLD)
 
 
+#: glibc malloc arenas at most (``M_ARENA_MAX``; its default is 8 per core). Each arena a
+#: thread opens reserves 64 MB of address space, and polars' and OpenBLAS's threads open
+#: them: ``pipeline run configs/thermal.yaml`` held 1,327 MB of address space (185 MB
+#: resident) when its analysis began, 606 MB with two arenas. An address-space limit
+#: (``ulimit -v``, a batch system's) of 1.2 GB then failed in the imports; with two it
+#: runs. The command's own threads are one (Python's) and polars allocates with jemalloc,
+#: so two arenas cost no contention that matters.
+ARENA_MAX = 2
+_M_ARENA_MAX = -8  # glibc's malloc.h
+
+
+def few_malloc_arenas() -> None:
+    """At most :data:`ARENA_MAX` glibc arenas: in this process by ``mallopt`` (before its
+    threads start), in the processes it starts by ``MALLOC_ARENA_MAX``. Nothing where the
+    user chose (that variable, or ``GLIBC_TUNABLES``' ``glibc.malloc.arena_max``) or the C
+    library is not glibc."""
+    if "MALLOC_ARENA_MAX" in os.environ or \
+            "malloc.arena_max" in os.environ.get("GLIBC_TUNABLES", ""):
+        return
+    mallopt = _libc("mallopt")
+    if mallopt is not None and mallopt(_M_ARENA_MAX, ARENA_MAX) == 1:
+        os.environ["MALLOC_ARENA_MAX"] = str(ARENA_MAX)
+
+
 @functools.cache
 def _libc(name: str):
     """glibc's function ``name``, or None (another C library, another system)."""
@@ -122,16 +146,25 @@ def available() -> int | None:
             found.append(max(0, int(limit) - used))
     except (OSError, ValueError):
         pass
+    left = address_space_left()
+    if left is not None:
+        found.append(left)
+    return min(found) if found else None
+
+
+def address_space_left() -> int | None:
+    """The address-space limit less the address space in use (``RLIMIT_AS``, ``VmSize``),
+    in bytes; None without a limit or where it cannot be read."""
     try:
         import resource
 
         soft, _ = resource.getrlimit(resource.RLIMIT_AS)
         status = _proc_fields("/proc/self/status")
         if soft != resource.RLIM_INFINITY and "VmSize" in status:
-            found.append(max(0, soft - status["VmSize"]))
+            return max(0, soft - status["VmSize"])
     except (ImportError, OSError, ValueError):
         pass
-    return min(found) if found else None
+    return None
 
 
 def _proc_fields(path: str) -> dict[str, int]:
@@ -147,3 +180,38 @@ def _proc_fields(path: str) -> dict[str, int]:
     except OSError:
         pass
     return out
+
+
+#: Address space that must be left when the BLAS buffers are taken (two of about 32 MB
+#: and room to fit): less is refused as out of memory before any native library can fail
+#: on it (at ``ulimit -v 1000000`` the command's imports left 0-6 MB).
+BLAS_HEADROOM = 96 << 20
+#: Square matrices of this size multiplied once by each BLAS library: large enough that
+#: OpenBLAS takes its buffered path (its small-matrix kernels skip the buffer).
+_BLAS_WARM_SIZE = 256
+
+
+@functools.cache
+def reserve_blas_buffers() -> None:
+    """Have numpy's and scipy's OpenBLAS allocate their work buffers now, while memory is
+    free: each allocates about 32 MB on its first buffered call and keeps it for the
+    process's life. Allocated first in a fit under a nearly exhausted address-space limit,
+    the allocation fails inside OpenBLAS, which retries in C and then calls ``exit(1)``
+    or, in scipy's build, retries without end, deaf to SIGTERM (issue 31: ``ulimit -v
+    800000``, ``pipeline run configs/thermal.yaml --workers 1`` spun for 11 minutes of CPU
+    in ``blas_memory_alloc`` under ``scipy_dgelsd_``). With the buffers held, the same
+    shortage is a MemoryError in numpy: one line and exit 2. Cost: one 256 x 256 product
+    per library, about a millisecond, once per process. With less than
+    :data:`BLAS_HEADROOM` of address space left, a MemoryError before either library is
+    touched (where the imports alone used up the limit, OpenBLAS's buffer was the first
+    allocation to fail, 2 runs in 6)."""
+    import numpy as np
+    from scipy.linalg import blas
+
+    left = address_space_left()
+    if left is not None and left < BLAS_HEADROOM:
+        raise MemoryError(f"{left >> 20} MB of address space is left after start-up, "
+                          f"at least {BLAS_HEADROOM >> 20} MB are needed")
+    a = np.ones((_BLAS_WARM_SIZE, _BLAS_WARM_SIZE))
+    a @ a  # numpy's own OpenBLAS
+    blas.dgemm(1.0, a, a)  # scipy's (LAPACK's least squares calls its dgemm)

@@ -168,6 +168,7 @@ def analysed(record: Record, options: AnalysisOptions, name: str | None = None,
     window-sized arrays scattered through the heap, which the next stage (a report, the
     next record in a worker) could not reuse for its record-long arrays. ``workers``: for
     a long record's fits (:mod:`pipeline.parallel`)."""
+    memory.reserve_blas_buffers()
     res = analyse(record, options, name=name, workers=workers)
     memory.release()
     return res

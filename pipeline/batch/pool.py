@@ -117,6 +117,9 @@ def _worker_init(owner: int) -> None:
     from threadpoolctl import threadpool_limits
 
     threadpool_limits(limits=1)
+    from ..memory import reserve_blas_buffers
+
+    reserve_blas_buffers()
 
 
 # -- executors ---------------------------------------------------------------------------

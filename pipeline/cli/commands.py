@@ -28,6 +28,7 @@ from .output import (
     error_line,
     keep_whole,
     out,
+    plain_error_line,
     print_json,
     print_ranking,
     report_stdout_failure,
@@ -65,7 +66,7 @@ def handled(command):
         except (MemoryError, ImportError, OSError) as exc:
             if not out_of_memory(exc):
                 raise
-            error_line(memory_message(exc))
+            plain_error_line(memory_message(exc))
             raise typer.Exit(ExitCode.USER_ERROR) from None
 
     return wrapper

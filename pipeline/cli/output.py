@@ -162,6 +162,17 @@ def error_line(message: str) -> None:
     err.print(f"error: {printable(message)}", markup=False)
 
 
+def plain_error_line(message: str) -> None:
+    """:func:`error_line` without rich: out of memory, where rendering the line through
+    rich could fail on its own (it imports its emoji table on first use: under
+    ``ulimit -v 1200000`` that import was the MemoryError's traceback, exit 1)."""
+    try:
+        sys.stderr.write(f"error: {printable(message)}\n")
+        sys.stderr.flush()
+    except (OSError, ValueError, MemoryError):  # nowhere left to say it
+        pass
+
+
 JsonOption = Annotated[bool, typer.Option("--json", help="print JSON to stdout")]
 
 
