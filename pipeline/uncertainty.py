@@ -147,6 +147,12 @@ def t_quantile(dof: float, level: float = 0.95) -> float:
     return float(stats.t.ppf(0.5 + level / 2, max(dof, 1.0)))
 
 
+def chi2_upper(dof: float, alpha: float) -> float:
+    """The chi-square quantile with ``dof`` degrees of freedom that chance exceeds with
+    probability ``alpha``."""
+    return float(stats.chi2.isf(alpha, max(dof, 1.0)))
+
+
 def residual_variance(resid: np.ndarray, n_params: int, factor: float) -> float:
     """``s^2 = |e|^2 / (n - f n_params)``, at least ``n / 2`` in the divisor (see
     :func:`covariance`)."""

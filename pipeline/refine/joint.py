@@ -34,6 +34,7 @@ from ..models import ProcessModel
 from ..record import Record
 from ..validate import fit_start, heldout_residuals, validation_runs
 from .event import carry_source, mismatch, structure_state, summary
+from .fold_spread import widened_by_folds
 from .left_out import left_out_fits
 from .refinement import Refinement, RefineOptions, refine, refine_model
 from .search import candidate_starts
@@ -268,6 +269,7 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
         ref, s = refine_span(record, events, ident, structure, models=models, states=states,
                              options=options)
         model, ci, refined = ref.model, dict(ref.ci95), summary(ref, s.carried_from)
+        quantile = float(ref.diagnostics.get("quantile", math.nan))
         del ref  # its fit and residuals over the span (record-long on a long log)
         metrics = {}
         if cross_validation and many:
@@ -275,8 +277,8 @@ def span_fit(record: Record, events: Sequence[Event], ident: Sequence[int], meth
             metrics["mse_cross_validation"], folds = cross_validate(
                 record, events, ident, model, states=states, options=fold_opt)
             refined = replace(refined, folds=folds)
-        return Fit(method, ident[0], "ok", None, model, metrics, ci95=ci, events=many,
-                   refinement=refined)
+        return widened_by_folds(Fit(method, ident[0], "ok", None, model, metrics, ci95=ci,
+                                    events=many, refinement=refined), quantile)
     except Exception as exc:  # a bug in one fit must not lose the record's other fits
         return Fit(method, ident[0], "failed", f"internal error: {type(exc).__name__}: {exc}",
                    events=many)

@@ -320,7 +320,8 @@ def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
         model=model, y0=y0, u0=float(u0), ci95=ci, std=std, fitted=fitted, residuals=resid,
         initial_state=initial_state, n_linear=rank, variance_factor=variance_factor(resid),
         nfev=nfev, n_runs=runs, diagnostics={"coefficients": [float(v) for v in c[2:]],
-                                             "rows": int(prob.y.size)}, covariance=cov_z,
+                                             "rows": int(prob.y.size), "quantile": q},
+        covariance=cov_z,
         sensitivity=sens)
 
 
