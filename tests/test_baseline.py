@@ -26,6 +26,7 @@ from pipeline.gate.baseline import (
     time_scale,
 )
 from pipeline.methods import identify
+from pipeline.methods.lsq import graphical_models
 from pipeline.record import Record
 from pipeline.report.junit import junit_xml, write_junit
 from pipeline.results import as_doc, event_doc, fit_doc
@@ -60,9 +61,13 @@ def fit_record(rec: Record, methods=METHODS) -> dict:
     ev = EventData.from_event(rec, events[0])
     validation = [e.index for e in events[1:]]
     fits = []
+    starts = graphical_models(ev)  # a refinement starts as in the product: from the
+    # readings and the refinements before it (a nested structure's optimum among them)
     for method in methods:
-        fit = identify(ev, method)
+        fit = identify(ev, method, models=starts) if method.startswith("lsq_") else \
+            identify(ev, method)
         if fit.ok:
+            starts = [*starts, fit.model] if method.startswith("lsq_") else starts
             fit = replace(fit, metrics=score(fit.model, rec, events, events[0], validation))
         fits.append(fit_doc(fit).model_dump(mode="json"))
     roles = {0: "identification", **{i: "validation" for i in validation}}
