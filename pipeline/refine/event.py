@@ -36,7 +36,7 @@ from ..signal import smooth
 from ..uncertainty import variance_factor
 from ..validate import fit_start
 from .refinement import Refinement, RefineOptions, refine
-from .search import candidate_starts
+from .search import candidate_starts, jumps
 
 #: A baseline drift larger than this share of the step's output change counts as moving
 #: (when it is also beyond 3 standard errors of the noise).
@@ -175,11 +175,26 @@ def refine_event(ev: EventData, structure: str, *, models: Sequence[ProcessModel
     sl = slice(fit_start(0, ev.i0, ev.t.size), ev.t.size)
     span = float(ev.t[-1] - ev.t[sl.start])
     exit_ = band_exit(ev)
-    return refine(ev.t[sl], ev.u[sl], ev.y[sl], structure, u_ref=ev.u0,
-                  starts=candidate_starts(structure, models, span,
-                                          () if exit_ is None else (exit_,)),
-                  initial_state=structure_state(structure, state or initial_state(ev), ev),
-                  options=options)
+    starts = candidate_starts(structure, models, span, () if exit_ is None else (exit_,))
+    args = (ev.t[sl], ev.u[sl], ev.y[sl], structure)
+    kw = {"u_ref": ev.u0, "options": options,
+          "initial_state": structure_state(structure, state or initial_state(ev), ev)}
+    ref = refine(*args, starts=starts, **kw)
+    if exit_ is not None and jumps(structure) and ref.mse > BASIN_RATIO * ev.noise**2:
+        # the cost of a response that jumps at its dead time is discontinuous at every
+        # sample: the search from the best-ranked starts can stop samples off it
+        at_exit = [p for p in starts if p.get("delay") == exit_]
+        again = refine(*args, starts=at_exit, **kw) if at_exit else ref
+        ref = again if again.mse < ref.mse else ref
+    return ref
+
+
+#: A jumping response's fit error, in noise variances, beyond which its search is run
+#: again from the starts at the dead time read off the data (:func:`band_exit`). Measured:
+#: a lead-lag that jumps back (2(-2s+1)/(5s+1) e^-s, 2 % noise) stopped at a dead time of
+#: 0.81 s in 1 seed of 10 (MSE 3.0 noise variances, its Tz 10 % off); from the dead time
+#: read off the data it reached 1.00 s (1.005). The others fit within 1.05.
+BASIN_RATIO = 1.5
 
 
 def structure_state(structure: str, state: InitialState, ev: Event | EventData
