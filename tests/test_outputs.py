@@ -11,6 +11,7 @@ import os
 import time
 from pathlib import Path
 
+import polars as pl
 import pytest
 from typer.testing import CliRunner
 
@@ -416,10 +417,11 @@ def test_two_runs_onto_one_folder_publish_in_turn(tmp_path, monkeypatch, lock):
     assert tags == ({"B"} if lock else {"A", "B"})  # with the lock: A, then all of B
 
 
-def test_three_real_runs_onto_one_folder_leave_one_runs_report(tmp_path):
-    """Three ``pipeline run`` processes at once onto one ``--out``: each exits 0, and the
-    folder holds one run's results.json, report.md and report.html (each config names its
-    run; the reports carry the name in their title)."""
+def test_four_real_runs_onto_one_folder_and_one_history(tmp_path):
+    """Four ``pipeline run`` processes at once onto one ``--out`` and one ``--history``
+    (issue 31): each exits 0, the folder holds one run's results.json, report.md and
+    report.html (each config names its run; the reports carry the name in their title),
+    and the history holds every run's rows, none lost."""
     import subprocess
     import sys
 
@@ -429,22 +431,27 @@ def test_three_real_runs_onto_one_folder_leave_one_runs_report(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1]),
            "MPLBACKEND": "Agg"}
     procs = []
-    for k in range(3):
+    for k in range(4):
         (tmp_path / f"night{k}.yaml").write_text(
             f"name: night{k}\ndata: {{path: logs, input: u, output: y, time: time}}\n"
             "methods: [first_order]\n")
         procs.append(subprocess.Popen(
             [sys.executable, "-m", "pipeline", "run", f"night{k}.yaml", "--out", "out",
-             "--workers", "1", "-q"], cwd=tmp_path, env=env, stderr=subprocess.PIPE))
+             "--workers", "1", "--history", "h.parquet", "-q"], cwd=tmp_path, env=env,
+            stderr=subprocess.PIPE))
     for p in procs:
         assert p.wait(timeout=120) == 0, p.stderr.read().decode()
     out = tmp_path / "out"
     run = json.loads((out / "results.json").read_text())["config"]
     name = Path(run).stem
-    assert name in {"night0", "night1", "night2"}
+    assert name in {f"night{k}" for k in range(4)}
     for report in ("report.md", "report.html"):
         text = (out / report).read_text()
         assert f"System identification: {name}" in text
         assert not any(f"System identification: night{k}" in text
-                       for k in range(3) if f"night{k}" != name)
+                       for k in range(4) if f"night{k}" != name)
+    history = pl.read_parquet(tmp_path / "h.parquet")
+    per_run = history.group_by("time").len()
+    assert per_run.height == 4 and per_run["len"].n_unique() == 1, per_run  # none lost
+    assert history["record"].n_unique() == 2
     assert not any(p.name.startswith(".pipeline.tmp-") for p in out.iterdir())
