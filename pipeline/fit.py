@@ -99,11 +99,13 @@ class RowSensitivity:
     ``rows``, the profiled pseudo-inverse (one row per coordinate of its
     :class:`ParameterCovariance`, one column per criterion row, the rows consecutive in
     time), ``samples`` fit samples per criterion row (block means beyond the refinement's
-    ``max_rows``), and the t ``quantile`` of its intervals."""
+    ``max_rows``), and the t ``quantile`` of its intervals; ``pair``, two coincident lags'
+    coordinates whose rows are in ``(m, w)`` (:mod:`pipeline.refine.coincident`)."""
 
     rows: np.ndarray
     samples: int
     quantile: float
+    pair: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,7 @@ import numpy as np
 
 from ..events import Event
 from ..fit import Fit, ParameterCovariance
+from .coincident import from_symmetric
 from .event import JACOBIAN_INTERVALS
 from .refinement import intervals
 
@@ -156,6 +157,8 @@ def widened(fit: Fit, idx: np.ndarray, e: np.ndarray, noise_rms: float) -> Fit:
         return plain
     own = np.asarray(cov.matrix, np.float64)
     sand = sandwich(sens.rows, acov)
+    if sens.pair is not None:  # rows of two coincident lags in (m, w)
+        sand = from_symmetric(sand, np.asarray(cov.z), sens.pair, sens.quantile)
     d_own, d_sand = np.diag(own), np.diag(sand)
     if not (np.all(np.isfinite(sand)) and np.all(d_sand > 0)) or np.all(d_sand <= d_own):
         return plain

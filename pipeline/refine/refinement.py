@@ -52,6 +52,13 @@ from ..uncertainty import (
     t_quantile,
     variance_factor,
 )
+from .coincident import (
+    coincide,
+    difference_variance,
+    from_symmetric,
+    lag_pair,
+    symmetric_jacobian,
+)
 from .lstsq import block_means, project_out, solve
 from .lstsq import runs as mask_runs
 from .problem import Columns, Problem
@@ -303,6 +310,16 @@ def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
     cov = covariance(jac, rows_resid, rank + len(free), factor)
     q = t_quantile(max(rows_resid.size / factor - rank - len(free), MIN_DOF), opt.level)
     z = space.to_z(p) if free else np.empty(0)
+    pair, coincident = lag_pair(space), False
+    if pair is not None and coincide(pair, z, cov, q):
+        # two lags the data cannot tell apart: their split bounded by the data in the
+        # coordinates the response is smooth in, where that is the narrower bound (far
+        # from coincidence the plain linearisation holds; pipeline.refine.coincident)
+        sym = symmetric_jacobian(_profile(prob, space, p, K), jac, z, pair)
+        c_sym = from_symmetric(covariance(sym, rows_resid, rank + len(free), factor), z,
+                               pair, q)
+        if difference_variance(pair, c_sym) < difference_variance(pair, cov):
+            cov, jac, coincident = c_sym, sym, True
     model = _model(prob.structure, p, K, {}, {})[0]
     names = free + ["K"]
     if "T1" in names and "T2" in names and model.params["T1"] != p["T1"]:  # swapped
@@ -315,12 +332,13 @@ def _finish(prob: Problem, space: Space, p: Mapping[str, float], y: np.ndarray,
     if opt.sensitivity and (prob.mask is None or mask_runs(prob.mask)[0].size == 1):
         # the rows consecutive in time (one run of fit samples)
         sens = RowSensitivity(gram_pinv(jac) @ jac.T, int(np.median(prob.counts))
-                              if prob.counts.size else 1, q)
+                              if prob.counts.size else 1, q, pair if coincident else None)
     return Refinement(
         model=model, y0=y0, u0=float(u0), ci95=ci, std=std, fitted=fitted, residuals=resid,
         initial_state=initial_state, n_linear=rank, variance_factor=variance_factor(resid),
         nfev=nfev, n_runs=runs, diagnostics={"coefficients": [float(v) for v in c[2:]],
-                                             "rows": int(prob.y.size), "quantile": q},
+                                             "rows": int(prob.y.size), "quantile": q,
+                                             "coincident_lags": coincident},
         covariance=cov_z,
         sensitivity=sens)
 
@@ -375,11 +393,12 @@ def _model(structure: str, p, K: float, ci, std) -> tuple[ProcessModel, dict, di
     return ProcessModel(structure, params), ci, std
 
 
-def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
-    """Jacobian of ``P(theta) (y - K x(theta))`` wrt (z, K), the nuisance columns (offset,
-    state, input balance) projected out by ``P``; central differences in z. ``prob`` is
-    the fit's problem, not its search's: no parameter is solved linearly in it (its
-    forced column is the response at ``p``, not at the linear ones' zero)."""
+def _profile(prob: Problem, space: Space, p, K: float):
+    """``P(theta) (y - K x(theta))`` as a function of the search coordinates ``z``, with
+    ``x(theta)``'s rows and the projection's basis: the nuisance columns (offset, state,
+    input balance) projected out by ``P``. ``prob`` is the fit's problem, not its
+    search's: no parameter is solved linearly in it (its forced column is the response
+    at ``p``, not at the linear ones' zero)."""
     assert not prob.linear, "the profiled Jacobian of a problem with linear parameters"
 
     def prof(z):
@@ -391,6 +410,12 @@ def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
         r = prob.y - K * xr
         return r - qb @ (qb.T @ r), xr, qb
 
+    return prof
+
+
+def _profiled_jacobian(prob: Problem, space: Space, p, K: float) -> np.ndarray:
+    """Jacobian of :func:`_profile`'s residual wrt (z, K); central differences in z."""
+    prof = _profile(prob, space, p, K)
     z0 = space.to_z(p) if space.names else np.empty(0)
     _, x0, q0 = prof(z0)
     cols = []
