@@ -75,12 +75,8 @@ def large_arrays_mapped() -> None:
     ``GLIBC_TUNABLES``' ``glibc.malloc.mmap_threshold``: glibc applied it to this process
     already), where the C library is not glibc, or where glibc refuses the value (a
     32-bit build's maximum is 512 kB)."""
-    if "MALLOC_MMAP_THRESHOLD_" in os.environ or \
-            "malloc.mmap_threshold" in os.environ.get("GLIBC_TUNABLES", ""):
-        return
-    mallopt = _libc("mallopt")
-    if mallopt is not None and mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD) == 1:
-        os.environ["MALLOC_MMAP_THRESHOLD_"] = str(MMAP_THRESHOLD)
+    _malloc_option(_M_MMAP_THRESHOLD, MMAP_THRESHOLD, "MALLOC_MMAP_THRESHOLD_",
+                   "malloc.mmap_threshold")
 
 
 #: glibc malloc arenas at most (``M_ARENA_MAX``; its default is 8 per core). Each arena a
@@ -99,12 +95,19 @@ def few_malloc_arenas() -> None:
     threads start), in the processes it starts by ``MALLOC_ARENA_MAX``. Nothing where the
     user chose (that variable, or ``GLIBC_TUNABLES``' ``glibc.malloc.arena_max``) or the C
     library is not glibc."""
-    if "MALLOC_ARENA_MAX" in os.environ or \
-            "malloc.arena_max" in os.environ.get("GLIBC_TUNABLES", ""):
+    _malloc_option(_M_ARENA_MAX, ARENA_MAX, "MALLOC_ARENA_MAX", "malloc.arena_max")
+
+
+def _malloc_option(option: int, value: int, variable: str, tunable: str) -> None:
+    """Set glibc's malloc ``option`` to ``value`` in this process (``mallopt``) and, where
+    glibc took it, the environment ``variable`` its child processes read at their start.
+    Nothing where the user chose already (``variable``, or ``tunable`` in
+    ``GLIBC_TUNABLES``) or the C library is not glibc."""
+    if variable in os.environ or tunable in os.environ.get("GLIBC_TUNABLES", ""):
         return
     mallopt = _libc("mallopt")
-    if mallopt is not None and mallopt(_M_ARENA_MAX, ARENA_MAX) == 1:
-        os.environ["MALLOC_ARENA_MAX"] = str(ARENA_MAX)
+    if mallopt is not None and mallopt(option, value) == 1:
+        os.environ[variable] = str(value)
 
 
 @functools.cache
