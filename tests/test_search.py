@@ -85,3 +85,52 @@ def test_kept_residuals_are_bounded_and_change_nothing(monkeypatch):
     assert tight.params == roomy.params and tight.cost == roomy.cost
     assert roomy.params["T"] == pytest.approx(2.0, rel=1e-6)
     assert n_tight > n_roomy  # the starts' residuals were simulated again
+
+
+def test_noise_like_reads_white_noise_as_noise_and_a_pattern_or_colour_as_not():
+    """White noise's mean square is half its differences' (ratio 1); an AR(1) residual
+    (phi 0.9: ratio 1 / (1 - phi) = 10) and white noise plus a slow misfit of its own size
+    (ratio about 2) are not."""
+    from pipeline.refine.search import noise_like
+    k = np.arange(600)
+    for seed in range(20):
+        e = np.random.default_rng(seed).normal(0.0, 1.0, k.size)
+        ar = np.zeros_like(e)
+        for i in range(1, e.size):
+            ar[i] = 0.9 * ar[i - 1] + e[i]
+        assert noise_like(e)
+        assert not noise_like(ar)
+        assert not noise_like(e + np.sqrt(2.0) * np.sin(np.pi * k / k.size))
+    assert not noise_like(np.array([1.0, -1.0]))  # too short to tell
+
+
+def _two_valleys(noise: np.ndarray):
+    """A residual of white ``noise`` plus a slow pattern whose size is the distance in
+    log T from the deep basin at 2 s (no pattern there), and 0.3 at a shallow one at 50 s."""
+    k = np.arange(noise.size)
+    pattern = np.sin(np.pi * k / k.size)
+
+    def fun(z):
+        lt = float(z[0])
+        a = min(0.5 * abs(lt - np.log(2.0)), 0.3 + 0.5 * abs(lt - np.log(50.0)))
+        return noise + a * pattern
+    return fun
+
+
+def test_a_start_that_ends_in_the_noise_is_the_answer_and_a_misfit_tries_the_others(
+        monkeypatch):
+    """The best-ranked start converged where the residual is the noise: no other start is
+    piloted, and the optimum is the full search's (every start piloted: BASIN_RATIO 0);
+    where it converged in a shallow basin (a slow misfit left), the others are tried and
+    the deep basin found."""
+    import pipeline.refine.search as search
+    noise = np.random.default_rng(1).normal(0.0, 0.05, 400)
+    fun = _two_valleys(noise)
+    quick = multistart(fun, SPACE, [{"T": 2.5}, {"T": 40.0}, {"T": 0.3}], 2, 300)
+    assert quick.runs == 1 and quick.params["T"] == pytest.approx(2.0, rel=0.05)
+    monkeypatch.setattr(search, "BASIN_RATIO", 0.0)
+    full = multistart(fun, SPACE, [{"T": 2.5}, {"T": 40.0}, {"T": 0.3}], 2, 300)
+    assert full.runs == 2 and full.params["T"] == pytest.approx(quick.params["T"], rel=1e-3)
+    monkeypatch.undo()
+    shallow = multistart(fun, SPACE, [{"T": 40.0}, {"T": 8.0}], 2, 300)
+    assert shallow.runs == 2 and shallow.params["T"] == pytest.approx(2.0, rel=0.05)
