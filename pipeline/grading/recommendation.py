@@ -193,8 +193,9 @@ def in_time_order(parts: list[tuple[np.ndarray, np.ndarray, list[tuple[int, int]
 def candidates(result, crit: str) -> list[Fit]:
     """The fits the recommendation chooses from: ok, with a finite criterion; once graded,
     not unreliable while any other is not; not undetermined (:func:`undetermined`) while a
-    determined one fits within the noise (:func:`fits_within_noise`, and no richer
-    refinement earns its parameters over it, :func:`outfitted`): the more complex
+    determined refinement fits within the noise (:func:`fits_within_noise`, and no richer
+    refinement earns its parameters over it, :func:`outfitted`; a reading, without
+    intervals, is not known to be determined and sets nothing aside): the more complex
     model must earn its parameters, and a model that cannot be trusted is never the answer
     while another can; no integrating model of a record whose responses settle while a
     self-regulating one is left (``no_integrating_evidence``). A graphical reading (no
@@ -210,8 +211,8 @@ def candidates(result, crit: str) -> list[Fit]:
     fits = usable or fits
     evident = [f for f in fits if not _flagged(f, "no_integrating_evidence")]
     fits = evident or fits
-    within = [f for f in fits if not undetermined(f) and fits_within_noise(f)
-              and not outfitted(f, fits)]
+    within = [f for f in fits if f.is_refined and not undetermined(f)
+              and fits_within_noise(f) and not outfitted(f, fits)]
     fits = [f for f in fits if not undetermined(f)] if within else fits
     refined = [f for f in fits if f.is_refined]
     if not refined:
