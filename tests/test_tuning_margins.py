@@ -265,3 +265,26 @@ def test_margins_is_frozen() -> None:
     assert isinstance(m, Margins)
     with pytest.raises(AttributeError):
         m.ms = 2.0  # type: ignore[misc]
+
+
+def test_an_integral_controller_of_a_pure_gain_is_stable_not_overflowed() -> None:
+    """A lead-lag whose zero cancels its lag (Tz 1.23 s, T 1.236 s) is a pure gain to
+    SIMC's rule T2: the PI limit Kc, Ti -> 0 (Kc 5.02e-309, Ti 1e-309 s), an integral
+    controller with Ki = Kc / Ti = 5.02 /s. Its response is Kc + Ki / s to the bit of
+    the quotient (1/(Ti s) overflowed and the loop read as unstable on the model); the
+    loop ``Ki K / s`` with K 2 crosses over at 10 rad/s with a phase margin of 90 deg."""
+    import warnings
+
+    from pipeline.models import ProcessModel
+    from pipeline.tuning import Controller
+    from pipeline.tuning.tuner import tune
+
+    c = Controller.ideal(5.022e-309, 1e-309)
+    s = 1j * np.array([0.1, 1.0, 10.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = c.response(s)
+        tuned = tune(ProcessModel("lead_lag", {"K": 2.0, "Tz": 1.23, "T": 1.236,
+                                               "delay": 0.0}))
+    assert np.allclose(r, 5.022 / s, rtol=1e-12)
+    assert tuned.margins.stable and tuned.margins.phase_margin == pytest.approx(90, abs=1)

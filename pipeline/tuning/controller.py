@@ -81,12 +81,15 @@ class Controller:
     def response(self, s: np.ndarray) -> np.ndarray:
         """C(s) at the complex points ``s`` (ideal form with the derivative filter)."""
         s = np.asarray(s, dtype=np.complex128)
-        c = np.ones_like(s)
+        c = np.full_like(s, self.Kc)
         if self.integrating:
-            c = c + 1.0 / (self.Ti * s)
+            # Kc/Ti first: an integral controller of a pure gain is the limit Kc, Ti -> 0
+            # (SIMC gave Kc 5.0e-309, Ti 1e-309 s); 1/(Ti s) overflowed and the loop read
+            # as unstable, Kc/Ti (5.0 /s) is its integral gain
+            c = c + (self.Kc / self.Ti) / s
         if self.Td > 0:
-            c = c + self.Td * s / (self.Tf * s + 1.0)
-        return self.Kc * c
+            c = c + self.Kc * self.Td * s / (self.Tf * s + 1.0)
+        return c
 
     def num_den(self) -> tuple[list[float], list[float]]:
         """C(s) as a ratio of polynomials in descending powers of s."""
