@@ -15,7 +15,7 @@ from pipeline.grading.recommendation import earns_parameters
 from pipeline.grading.verdicts import verdict_of
 from pipeline.models import ProcessModel
 from pipeline.record import uniform_step
-from pipeline.report.tables import with_ci
+from pipeline.report.tables import interval_text, with_ci
 
 
 def test_info_flags_do_not_change_the_verdict():
@@ -71,6 +71,11 @@ def test_an_interval_reads_as_a_half_width_rounded_to_it_or_as_its_ends():
     assert with_ci(fit, "K") == "21.22 ± 0.53" and with_ci(fit, "T") == "59 ± 12"
     lopsided = Fit("x", 0, "ok", model=model, ci95={"T": (30.0, 200.0)})
     assert with_ci(lopsided, "T") == "58.61 [30, 200]"
+    # the interval's ends to the same place as the value (issue 27 item 9)
+    assert interval_text(58.61, 46.54, 70.68) == "[47, 71]"
+    assert interval_text(21.2234, 20.69, 21.75) == "[20.69, 21.75]"
+    assert interval_text(2.0, 1.99988, 2.00012) == "[1.99988, 2.00012]"  # not [2, 2]
+    assert interval_text(58.61, 30.0, 200.0) == "[30, 200]"
 
 
 def test_one_grid_rule_the_mean_interval():

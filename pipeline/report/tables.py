@@ -129,6 +129,19 @@ def with_ci(fit: Fit, name: str, record: Record | None = None) -> str:
     return f"{_rounded_to(v, half)} ± {fmt(half, 2)}"
 
 
+def interval_text(v: float, lo: float, hi: float) -> str:
+    """``[lo, hi]`` to the decimal place :func:`with_ci` rounds the value to: the second
+    significant digit of the half-width where the interval is about symmetric about
+    ``v`` (issue 27 item 9: K 2.00000 ± 0.00012 read "[2, 2]" at four significant
+    digits; a zero's 59 ± 12 read "[46.54, 70.68]"), three significant digits where it
+    is lopsided (:data:`ASYMMETRIC`)."""
+    below, above = v - lo, hi - v
+    if below < 0 or above < 0 or abs(above - below) > ASYMMETRIC * max(above, below):
+        return f"[{fmt(lo, 3)}, {fmt(hi, 3)}]"
+    half = (hi - lo) / 2
+    return f"[{_rounded_to(lo, half)}, {_rounded_to(hi, half)}]"
+
+
 def _rounded_to(v: float, half: float) -> str:
     """``v`` to the decimal place of ``half``'s second significant digit (21.2234 with a
     half-width of 0.53 is 21.22; 58.61 with 12 is 59); as is when ``half`` is 0."""
@@ -311,7 +324,7 @@ def recommended_box(res: RecordResult) -> dict | None:
         units = rec.units if rec else None
         if ci and None not in ci and all(abs(b) <= UNBOUNDED for b in ci) and k != "n":
             lo, hi = sorted((shown(k, ci[0], units, st), shown(k, ci[1], units, st)))
-            interval = f"[{fmt(lo)}, {fmt(hi)}]"
+            interval = interval_text(shown(k, float(fit.model.params[k]), units, st), lo, hi)
         elif ci and k != "n":
             interval = "unbounded"
         rows.rows.append([Cell(label), Cell(with_ci(fit, k, rec), "num"),
