@@ -164,6 +164,9 @@ def test_trailing_lines(tmp_path):
     ("time,u,y\n" + _rows(t=lambda i: "x" if i == 3 else i), {}, "line 5: time column 'time' "
      "has 'x'; expected a number like the rows before"),
     ("values\n1\n2\n3\n", {}, "cannot tell how the fields are separated"),
+    # a short table with a ragged row: the row is named, not the delimiter blamed
+    ("time,u,y\n0,1,2\n1,1,3\n2,1\n", {}, "line 4 has 2 fields where the first line has "
+     "3 (comma-separated); expected 3 fields on every line"),
 ])
 def test_bad_layouts_are_one_line(tmp_path, text, keys, expected):
     p = _write(tmp_path, text)

@@ -76,15 +76,28 @@ _FIELD_LIMIT = csv.field_size_limit()
 def sniff_delimiter(lines: list[str], where: str) -> str:
     """The delimiter name of the first lines of a file (see the module docstring)."""
     sample = lines[:SAMPLE]
+    ragged = None  # (line number, its fields, the header's, delimiter) of a near miss
     for name in DELIMITERS:
         rows = [split(line, name) for line in sample]
         counts = [len(r) for r in rows]
         common, n = Counter(counts).most_common(1)[0]
+        data = [r for r, c in zip(rows[1:], counts[1:], strict=True) if c == common]
+        if common >= 2 and counts[0] == common and n < 0.8 * len(counts) and ragged is None \
+                and len(data) >= 2 and all(is_value(f) for r in data for f in r):
+            # a table (its rows of the header's width are numbers) with rows of another
+            # width: the first of them is the error, not the delimiter
+            k = next(i for i, c in enumerate(counts) if c != common)
+            ragged = (k + 1, counts[k], common, name)
         if common < 2 or counts[0] != common or n < 0.8 * len(counts):
             continue
         if name == "comma" and any(_spaced_numbers(f) for r in rows[1:] for f in r):
             continue
         return name
+    if ragged is not None:  # a short file with a ragged row: name the row
+        line, got, want, name = ragged
+        raise UserError(f"{where}: line {line} has {got} field{'s' if got != 1 else ''} "
+                        f"where the first line has {want} ({name}-separated); expected "
+                        f"{want} fields on every line")
     raise UserError(f"{where}: cannot tell how the fields are separated (no tab, semicolon, "
                     "comma or blanks split the first lines alike); expected a delimited "
                     "table, or set delimiter (--delimiter comma|semicolon|tab|whitespace)")
