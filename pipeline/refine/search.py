@@ -11,7 +11,7 @@
   starts with no edit here;
 * :func:`multistart` - the search itself: the best-ranked start to convergence, kept
   where its residual is the noise (:func:`noise_like`); else a few trust-region
-  iterations from each of the other distinct starts, then the best of them to
+  iterations from each of the best distinct starts, then the best of them to
   convergence (``scipy.optimize.least_squares``, trust-region reflective, bounded); when
   that ends at a time scale far beyond the data (:func:`far_bound`), more starts are
   tried.
