@@ -211,9 +211,9 @@ def candidates(result, crit: str) -> list[Fit]:
     fits = usable or fits
     evident = [f for f in fits if not _flagged(f, "no_integrating_evidence")]
     fits = evident or fits
-    within = [f for f in fits if f.is_refined and not undetermined(f)
-              and fits_within_noise(f) and not outfitted(f, fits)]
-    fits = [f for f in fits if not undetermined(f)] if within else fits
+    if any(f.is_refined and not undetermined(f) and fits_within_noise(f)
+           and not outfitted(f, fits) for f in fits):
+        fits = [f for f in fits if not undetermined(f)]
     refined = [f for f in fits if f.is_refined]
     if not refined:
         return fits

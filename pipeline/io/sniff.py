@@ -81,14 +81,16 @@ def sniff_delimiter(lines: list[str], where: str) -> str:
         rows = [split(line, name) for line in sample]
         counts = [len(r) for r in rows]
         common, n = Counter(counts).most_common(1)[0]
-        data = [r for r, c in zip(rows[1:], counts[1:], strict=True) if c == common]
-        if common >= 2 and counts[0] == common and n < 0.8 * len(counts) and ragged is None \
-                and len(data) >= 2 and all(is_value(f) for r in data for f in r):
-            # a table (its rows of the header's width are numbers) with rows of another
-            # width: the first of them is the error, not the delimiter
-            k = next(i for i, c in enumerate(counts) if c != common)
-            ragged = (k + 1, counts[k], common, name)
-        if common < 2 or counts[0] != common or n < 0.8 * len(counts):
+        columns = common >= 2 and counts[0] == common  # the header has the common width
+        alike = n >= 0.8 * len(counts)
+        if columns and not alike and ragged is None:
+            data = [r for r, c in zip(rows[1:], counts[1:], strict=True) if c == common]
+            if len(data) >= 2 and all(is_value(f) for r in data for f in r):
+                # a table (its rows of the header's width are numbers) with rows of
+                # another width: the first of them is the error, not the delimiter
+                k = next(i for i, c in enumerate(counts) if c != common)
+                ragged = (k + 1, counts[k], common, name)
+        if not (columns and alike):
             continue
         if name == "comma" and any(_spaced_numbers(f) for r in rows[1:] for f in r):
             continue

@@ -122,11 +122,17 @@ def with_ci(fit: Fit, name: str, record: Record | None = None) -> str:
     if not all(b is not None and math.isfinite(b) and abs(b) <= UNBOUNDED for b in ci):
         return f"{_value(name, v)} (unbounded)"
     lo, hi = sorted((shown(name, float(ci[0]), units, st), shown(name, float(ci[1]), units, st)))
-    below, above = v - lo, hi - v
-    if below < 0 or above < 0 or abs(above - below) > ASYMMETRIC * max(above, below):
+    if lopsided(v, lo, hi):
         return f"{_value(name, v)} [{fmt(lo, 3)}, {fmt(hi, 3)}]"
     half = (hi - lo) / 2
     return f"{_rounded_to(v, half)} ± {fmt(half, 2)}"
+
+
+def lopsided(v: float, lo: float, hi: float) -> bool:
+    """Whether ``[lo, hi]`` is not about symmetric about ``v`` (its sides differ by more
+    than :data:`ASYMMETRIC`, or ``v`` is outside it): shown as its ends, not ``±``."""
+    below, above = v - lo, hi - v
+    return below < 0 or above < 0 or abs(above - below) > ASYMMETRIC * max(above, below)
 
 
 def interval_text(v: float, lo: float, hi: float) -> str:
@@ -135,8 +141,7 @@ def interval_text(v: float, lo: float, hi: float) -> str:
     ``v`` (issue 27 item 9: K 2.00000 ± 0.00012 read "[2, 2]" at four significant
     digits; a zero's 59 ± 12 read "[46.54, 70.68]"), three significant digits where it
     is lopsided (:data:`ASYMMETRIC`)."""
-    below, above = v - lo, hi - v
-    if below < 0 or above < 0 or abs(above - below) > ASYMMETRIC * max(above, below):
+    if lopsided(v, lo, hi):
         return f"[{fmt(lo, 3)}, {fmt(hi, 3)}]"
     half = (hi - lo) / 2
     return f"[{_rounded_to(lo, half)}, {_rounded_to(hi, half)}]"
